@@ -1,0 +1,79 @@
+"""The variable bus: the MOOS database inside one process (spec 1.1).
+
+Apps publish named variables (a double or a string, stamped with time and source) and receive,
+once per tick, the mail they subscribed to. Subscribing to ``"*"`` receives everything (the
+logger does). Mail is delivered in the order it was posted.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from mavhelm.companion.clock import Clock
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """One posting of a variable."""
+
+    name: str
+    value: float | str
+    time: float
+    source: str
+
+    @property
+    def is_double(self) -> bool:
+        return not isinstance(self.value, str)
+
+    @property
+    def double(self) -> float:
+        if isinstance(self.value, str):
+            raise TypeError(f"{self.name} is a string, not a double")
+        return self.value
+
+    @property
+    def string(self) -> str:
+        return self.value if isinstance(self.value, str) else f"{self.value:g}"
+
+
+class Bus:
+    """Posts variables and holds each subscriber's mail until it fetches it."""
+
+    def __init__(self, clock: Clock) -> None:
+        self.clock = clock
+        self._subscribers: dict[str, set[str]] = defaultdict(set)
+        self._wildcard: set[str] = set()
+        self._mail: dict[str, list[Message]] = defaultdict(list)
+        self._latest: dict[str, Message] = {}
+
+    def subscribe(self, client: str, names: Iterable[str]) -> None:
+        for name in names:
+            if name == "*":
+                self._wildcard.add(client)
+            else:
+                self._subscribers[name].add(client)
+        self._mail.setdefault(client, [])
+
+    def notify(
+        self, name: str, value: float | str, source: str, time: float | None = None
+    ) -> Message:
+        if not isinstance(value, str):
+            value = float(value)
+        msg = Message(name, value, self.clock.now() if time is None else time, source)
+        self._latest[name] = msg
+        for client in self._subscribers.get(name, ()):
+            self._mail[client].append(msg)
+        for client in self._wildcard:
+            if client not in self._subscribers.get(name, ()):
+                self._mail[client].append(msg)
+        return msg
+
+    def fetch(self, client: str) -> list[Message]:
+        mail = self._mail.get(client, [])
+        self._mail[client] = []
+        return mail
+
+    def latest(self, name: str) -> Message | None:
+        return self._latest.get(name)

@@ -1,0 +1,1 @@
+"""A vehicle simulator that speaks MAVLink the way ArduPilot Rover SITL does."""
