@@ -1,0 +1,29 @@
+# mavhelm — `make demo` runs the demo mission in the built-in simulator, `make test` the suite.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN     = $(VENV)/bin
+
+.PHONY: demo test lint bench clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $@
+
+demo: $(BIN)/.installed
+	$(BIN)/mavhelm demo examples/demo.moos
+
+test: $(BIN)/.installed
+	$(BIN)/ruff check mavhelm tests benchmarks
+	$(BIN)/python -m pytest -q
+
+bench: $(BIN)/.installed
+	$(BIN)/python benchmarks/bench_demo.py
+	$(BIN)/python benchmarks/bench_hour_mission.py
+
+lint: $(BIN)/.installed
+	$(BIN)/ruff check mavhelm tests benchmarks
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache .ruff_cache

@@ -1,0 +1,110 @@
+"""pLogger: every bus message to a MOOS ``.alog`` file, and back.
+
+The format is the one MOOS pLogger writes, so MOOS-IvP tools (alogview, aloggrep, alogsplit)
+read our logs and ours read theirs: a ``%%`` banner holding ``%% LOGSTART <unix time>``, then one
+line per message, ``time-since-LOGSTART variable source value``, left-aligned in columns of 15,
+20 and 10 characters, time with 3 decimals.
+"""
+
+from __future__ import annotations
+
+import re
+import time as _time
+from pathlib import Path
+from typing import TextIO
+
+from mavhelm.companion.app import App
+from mavhelm.companion.bus import Bus, Message
+
+_BANNER = "%" * 60
+_NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf)", re.IGNORECASE)
+
+
+def format_value(value: float | str) -> str:
+    """Doubles with 12 significant digits (as MOOS's ``%.12g``); strings on one line."""
+    if isinstance(value, str):
+        return value.replace("\r", " ").replace("\n", " ")
+    return f"{value:.12g}"
+
+
+def format_line(msg: Message, start: float) -> str:
+    """One .alog line, without the newline."""
+    return (
+        f"{msg.time - start:<15.3f} {msg.name:<20} {msg.source or '?':<10} "
+        f"{format_value(msg.value)}"
+    ).rstrip()
+
+
+class AlogLogger(App):
+    """Subscribes to everything and writes it as it arrives; flushes every tick so a crash
+    or a power cut on the boat loses at most one tick of log."""
+
+    name = "pLogger"
+
+    def __init__(self, bus: Bus, path: str | Path, start_time: float | None = None) -> None:
+        """Open ``path`` (parents created) and write the banner; ``start_time`` defaults to
+        the bus clock's now and is kept to the millisecond the format records."""
+        super().__init__(bus)
+        self.path = Path(path)
+        start = bus.clock.now() if start_time is None else float(start_time)
+        self.start = round(start, 3)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file: TextIO | None = self.path.open("w", encoding="utf-8")
+        opened = _time.strftime("%a %b %d %H:%M:%S %Y", _time.gmtime(self.start))
+        self._file.write(
+            f"{_BANNER}\n"
+            f"%% LOG FILE:       {self.path}\n"
+            f"%% FILE OPENED ON  {opened} UTC\n"
+            f"%% LOGSTART        {self.start:20.3f}\n"
+            f"{_BANNER}\n"
+        )
+        self._file.flush()
+
+    def subscriptions(self) -> set[str]:
+        return {"*"}
+
+    def on_mail(self, mail: list[Message], now: float) -> None:
+        if self._file is None:
+            return
+        self._file.writelines(format_line(msg, self.start) + "\n" for msg in mail)
+
+    def iterate(self, now: float) -> None:
+        if self._file is not None:
+            self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def read_alog(path: str | Path) -> list[Message]:
+    """Messages of an .alog file with absolute times (LOGSTART + relative).
+
+    A value that reads as a number comes back as a float, anything else as a string (the
+    format does not record the type; MOOS tools guess the same way). Lines that are not
+    ``time variable source [value]`` are skipped, as MOOS tools do.
+    """
+    start = 0.0
+    messages: list[Message] = []
+    with Path(path).open(encoding="utf-8", errors="replace") as f:
+        for line in f:
+            if line.startswith("%"):
+                fields = line.split()
+                if len(fields) >= 3 and fields[1] == "LOGSTART":
+                    try:
+                        start = float(fields[2])
+                    except ValueError:
+                        pass
+                continue
+            fields = line.split(None, 3)
+            if len(fields) < 3:
+                continue
+            try:
+                t = float(fields[0])
+            except ValueError:
+                continue
+            text = fields[3].strip() if len(fields) == 4 else ""
+            value: float | str = float(text) if _NUMBER.fullmatch(text) else text
+            messages.append(Message(fields[1], value, start + t, fields[2]))
+    return messages

@@ -1,0 +1,96 @@
+"""The ``mavhelm`` command: ``run`` on the vehicle, ``sim`` a simulator, ``demo`` a mission."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mavhelm.companion.mission import MissionError
+
+
+def _run(args: argparse.Namespace) -> int:
+    from mavhelm.companion.clock import WallClock
+    from mavhelm.companion.companion import Companion
+
+    clock = WallClock()
+    log_dir = Path(args.log_dir)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
+    companion = Companion.build(args.mission, clock, connect=args.connect, alog_path=alog)
+    print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}")
+    next_tick = clock.now()
+    try:
+        while True:
+            companion.tick(clock.now())
+            next_tick += companion.tick_period
+            clock.sleep_until(next_tick)
+    except KeyboardInterrupt:
+        print("mavhelm: stopped")
+    finally:
+        companion.close()
+    return 0
+
+
+def _sim(args: argparse.Namespace) -> int:
+    from mavhelm.sitl import runner
+
+    return runner.run(args)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from mavhelm.demo import run_demo
+    from mavhelm.sitl.faults import Scenario
+
+    scenario = Scenario.from_file(args.scenario) if args.scenario else None
+    result = run_demo(args.mission, args.out, vehicle=args.vehicle, variant=args.variant,
+                      fast_start=args.fast_start, scenario=scenario, seed=args.seed)
+    return 0 if result.ended else 1
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from mavhelm.demo import DEFAULT_MISSION
+    from mavhelm.sitl import runner
+
+    parser = argparse.ArgumentParser(prog="mavhelm", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run the helm and navigator next to a real autopilot")
+    run.add_argument("mission", help="mission file (.moos)")
+    run.add_argument("--connect", help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
+                     "serial device such as /dev/ttyAMA0 (default: the mission's Connect)")
+    run.add_argument("--log-dir", default="runs", help="where the .alog goes (default runs/)")
+    run.set_defaults(func=_run)
+
+    sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
+    runner.add_arguments(sim)
+    sim.set_defaults(func=_sim)
+
+    demo = sub.add_parser("demo", help="run a mission end to end in the built-in simulator")
+    demo.add_argument("mission", nargs="?", default=str(DEFAULT_MISSION),
+                      help="mission file (default examples/demo.moos)")
+    demo.add_argument("--out", default="runs", help="output folder (default runs/)")
+    demo.add_argument("--vehicle", default="boat", choices=["boat", "rover"])
+    demo.add_argument("--variant", default=None, help="boat: skid|rudder; rover: ackermann|skid")
+    demo.add_argument("--fast-start", action="store_true",
+                      help="compress the autopilot's start-up timeline")
+    demo.add_argument("--scenario", help="fault scenario file (.scn)")
+    demo.add_argument("--seed", type=int, default=0)
+    demo.set_defaults(func=_demo)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except MissionError as exc:
+        print(f"mavhelm: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"mavhelm: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

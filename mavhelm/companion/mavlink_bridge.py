@@ -1,0 +1,338 @@
+"""The MAVLink bridge: the autopilot seen as variables on the bus, and helm output sent back.
+
+It is one connection with two faces in the community's tick order: ``AutopilotInput`` runs
+first (MAVLink in → ``GPS_*``, ``INS_*``, ``AP_*``, ``HELM_ONLINE``) and ``AutopilotOutput``
+runs after the helm (``DESIRED_*`` → SET_ATTITUDE_TARGET), so a mode change that arrives in a
+tick stops actuation in that same tick.
+
+The helm is online only while the link is up (a HEARTBEAT from the autopilot within
+``LinkTimeOut``), the autopilot is armed and its mode is one of ``OnlineModes``: the operator's
+ground-station mode switch is the spec's iRemote. In GUIDED, ArduPilot ignores RC override, so
+the ``guided`` actuation profile sends body yaw rate + thrust (type_mask 0x03), which Rover turns
+into turn rate and speed = thrust × WP_SPEED.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.companion.app import App
+from mavhelm.companion.bus import Bus, Message
+from mavhelm.companion.mission import Block, Mission, MissionError
+from mavhelm.geo import Origin
+
+ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
+ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
+
+COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
+ATTITUDE_RATE_AND_THRUST = 0x03
+_UNKNOWN_U16 = 65535
+
+DEFAULT_STREAMS: dict[str, float] = {
+    "GPS_RAW_INT": 5.0,
+    "ATTITUDE": 10.0,
+    "GLOBAL_POSITION_INT": 5.0,
+    "EKF_STATUS_REPORT": 1.0,
+    "SYS_STATUS": 1.0,
+}
+
+
+@dataclass
+class BridgeConfig:
+    """The ``iMAVLink`` ProcessConfig block."""
+
+    connect: str = "tcp:127.0.0.1:5760"
+    baud: int = 57600
+    system_id: int = 1
+    component_id: int = COMPANION_COMPONENT
+    target_system: int = 1
+    target_component: int = 1
+    online_modes: tuple[str, ...] = ("GUIDED",)
+    actuation: str = "guided"
+    max_turn_rate: float = 45.0
+    max_rudder: float = 20.0
+    link_timeout: float = 3.0
+    streams: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAMS))
+
+    @classmethod
+    def from_block(cls, block: Block | None, helm: Block | None = None) -> BridgeConfig:
+        cfg = cls()
+        if helm is not None:
+            cfg.max_rudder = helm.get_float("MAXRUDDER", cfg.max_rudder)
+        if block is None:
+            return cfg
+        known = {
+            "connect", "baud", "systemid", "componentid", "targetsystem", "targetcomponent",
+            "onlinemodes", "actuation", "maxturnrate", "linktimeout", "stream", "apptick",
+            "commstick",
+        }
+        for e in block.entries:
+            if e.key.lower() not in known:
+                raise e.error(f"unknown iMAVLink setting {e.key}; expected one of {sorted(known)}")
+        cfg.connect = block.get("Connect", cfg.connect) or cfg.connect
+        cfg.baud = int(block.get_float("Baud", cfg.baud))
+        cfg.system_id = int(block.get_float("SystemID", cfg.system_id))
+        cfg.component_id = int(block.get_float("ComponentID", cfg.component_id))
+        cfg.target_system = int(block.get_float("TargetSystem", cfg.target_system))
+        cfg.target_component = int(block.get_float("TargetComponent", cfg.target_component))
+        cfg.max_turn_rate = block.get_float("MaxTurnRate", cfg.max_turn_rate)
+        cfg.link_timeout = block.get_float("LinkTimeOut", cfg.link_timeout)
+        modes = block.entry("OnlineModes")
+        if modes is not None:
+            names = tuple(m.strip().upper() for m in modes.value.split(",") if m.strip())
+            for name in names:
+                if name not in ROVER_MODE_NUMBERS:
+                    raise modes.error(
+                        f"unknown Rover mode {name}; expected some of {sorted(ROVER_MODE_NUMBERS)}"
+                    )
+            cfg.online_modes = names
+        actuation = block.entry("Actuation")
+        if actuation is not None:
+            if actuation.value.lower() != "guided":
+                raise actuation.error(
+                    f"Actuation {actuation.value!r} is not supported yet; expected 'guided'"
+                )
+        for e in block.all("Stream"):
+            name, sep, rate = e.value.partition("@")
+            name = name.strip().upper()
+            if not sep or not hasattr(mavlink, f"MAVLINK_MSG_ID_{name}"):
+                raise e.error(f"Stream expects MESSAGE_NAME@rate_hz, got {e.value!r}")
+            try:
+                cfg.streams[name] = float(rate)
+            except ValueError:
+                raise e.error(f"Stream rate must be a number, got {rate.strip()!r}") from None
+        return cfg
+
+
+class MavlinkBridge:
+    """One MAVLink connection to the autopilot; ``input`` and ``output`` are its two apps."""
+
+    def __init__(self, bus: Bus, config: BridgeConfig, origin: Origin,
+                 connection: mavutil.mavfile | None = None) -> None:
+        self.bus = bus
+        self.config = config
+        self.origin = origin
+        self.conn = connection if connection is not None else open_connection(config)
+        self.input = AutopilotInput(self)
+        self.output = AutopilotOutput(self)
+        self.mode: str | None = None
+        self.armed = False
+        self.last_heartbeat: float | None = None
+        self.link_up = False
+        self.online = False
+        self.bad_packets = 0
+        self.packets = 0
+        self.ekf_position_ok: bool | None = None
+        self._bad_packets_posted = 0
+        self._streams_acked = False
+        self._streams_requested_at: float | None = None
+        self._next_heartbeat = 0.0
+        self._boot_time: float | None = None
+
+    @classmethod
+    def from_mission(cls, bus: Bus, mission: Mission, connect: str | None = None,
+                     connection: mavutil.mavfile | None = None) -> MavlinkBridge:
+        cfg = BridgeConfig.from_block(mission.process("iMAVLink"), mission.process("pHelm"))
+        if connect is not None:
+            cfg.connect = connect
+        return cls(bus, cfg, mission_origin(mission), connection)
+
+    # -- input -----------------------------------------------------------------------------
+
+    def receive(self, now: float) -> None:
+        if self._boot_time is None:
+            self._boot_time = now
+        while True:
+            try:
+                msg = self.conn.recv_msg()
+            except (OSError, ValueError) as exc:
+                self.bus.notify("MAVLINK_ERROR", f"receive failed: {exc}", self.input.name)
+                break
+            if msg is None:
+                break
+            if msg.get_type() == "BAD_DATA":
+                self.bad_packets += 1
+                continue
+            self.packets += 1
+            try:
+                self._handle(msg, now)
+            except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+                self.bad_packets += 1
+                self.bus.notify("MAVLINK_ERROR", f"{msg.get_type()}: {exc}", self.input.name)
+        self._update_link(now)
+
+    def _from_autopilot(self, msg: mavlink.MAVLink_message) -> bool:
+        return (msg.get_srcSystem() == self.config.target_system
+                and msg.get_srcComponent() == self.config.target_component)
+
+    def _handle(self, msg: mavlink.MAVLink_message, now: float) -> None:
+        if not self._from_autopilot(msg):
+            return
+        post = self.input.notify
+        kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
+                return
+            self.last_heartbeat = now
+            self.mode = ROVER_MODES.get(msg.custom_mode, f"MODE{msg.custom_mode}")
+            self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            post("AP_MODE", self.mode)
+            post("AP_ARMED", 1.0 if self.armed else 0.0)
+        elif kind == "GPS_RAW_INT":
+            post("GPS_FIX", float(msg.fix_type))
+            if msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:
+                x, y = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7)
+                post("GPS_X", x)
+                post("GPS_Y", y)
+                if msg.vel != _UNKNOWN_U16:
+                    post("GPS_SPEED", msg.vel / 100.0)
+                if msg.cog != _UNKNOWN_U16:
+                    post("GPS_HEADING", msg.cog / 100.0)
+        elif kind == "ATTITUDE":
+            post("INS_YAW", -msg.yaw)
+            post("INS_HEADING", math.degrees(msg.yaw) % 360.0)
+            post("INS_PITCH", msg.pitch)
+            post("INS_ROLL", msg.roll)
+            post("INS_YAW_VEL", -msg.yawspeed)
+        elif kind == "GLOBAL_POSITION_INT":
+            if self.ekf_position_ok is False or (msg.lat == 0 and msg.lon == 0):
+                return
+            x, y = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7)
+            post("AP_X", x)
+            post("AP_Y", y)
+            post("AP_SPEED", math.hypot(msg.vx, msg.vy) / 100.0)
+            if msg.hdg != _UNKNOWN_U16:
+                post("AP_HEADING", msg.hdg / 100.0)
+                post("AP_YAW", -math.radians(msg.hdg / 100.0))
+        elif kind == "EKF_STATUS_REPORT":
+            self.ekf_position_ok = bool(msg.flags & mavlink.EKF_POS_HORIZ_ABS)
+        elif kind == "COMMAND_ACK":
+            if (msg.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+                    and msg.result == mavlink.MAV_RESULT_ACCEPTED):
+                self._streams_acked = True
+            post("AP_COMMAND_ACK", f"command={msg.command},result={msg.result}")
+        elif kind == "STATUSTEXT":
+            post("AP_STATUSTEXT", msg.text)
+
+    def _update_link(self, now: float) -> None:
+        heard = self.last_heartbeat
+        up = heard is not None and now - heard <= self.config.link_timeout
+        if up != self.link_up:
+            self.link_up = up
+            self.input.notify("AP_LINK", 1.0 if up else 0.0)
+            if up:
+                self._request_streams(now)
+            else:
+                self._streams_acked = False
+                self.input.notify("MAVLINK_WARNING", "autopilot link lost: no HEARTBEAT for "
+                                  f"{self.config.link_timeout:g} s")
+        elif up and not self._streams_acked and self._streams_requested_at is not None \
+                and now - self._streams_requested_at >= 2.0:
+            self._request_streams(now)
+        online = up and self.armed and self.mode in self.config.online_modes
+        if online != self.online:
+            self.online = online
+            self.input.notify("HELM_ONLINE", 1.0 if online else 0.0)
+        if self.bad_packets != self._bad_packets_posted:
+            self._bad_packets_posted = self.bad_packets
+            self.input.notify("MAVLINK_BAD_PACKETS", float(self.bad_packets))
+
+    def _request_streams(self, now: float) -> None:
+        """Ask for each stream at its rate; repeated every 2 s until the autopilot ACKs."""
+        self._streams_requested_at = now
+        for name, rate in self.config.streams.items():
+            msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}")
+            interval_us = -1 if rate <= 0 else int(1e6 / rate)
+            self.conn.mav.command_long_send(
+                self.config.target_system, self.config.target_component,
+                mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msg_id, interval_us, 0, 0, 0, 0, 0)
+
+    # -- output ----------------------------------------------------------------------------
+
+    def send(self, mail: list[Message], now: float) -> None:
+        if now >= self._next_heartbeat:
+            self._next_heartbeat = now + 1.0
+            self.conn.mav.heartbeat_send(
+                mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
+                mavlink.MAV_STATE_ACTIVE)
+        if not self.online:
+            return
+        desired = {m.name: m.value for m in mail if m.is_double}
+        if "DESIRED_RUDDER" not in desired and "DESIRED_THRUST" not in desired:
+            return
+        rudder = float(desired.get("DESIRED_RUDDER", 0.0))
+        thrust = float(desired.get("DESIRED_THRUST", 0.0))
+        yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.config.max_rudder,
+                                                    self.config.max_turn_rate))
+        thrust_fraction = max(-1.0, min(1.0, thrust / 100.0))
+        boot_ms = int(max(0.0, now - (self._boot_time or now)) * 1000) & 0xFFFFFFFF
+        self.conn.mav.set_attitude_target_send(
+            boot_ms, self.config.target_system, self.config.target_component,
+            ATTITUDE_RATE_AND_THRUST, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, yaw_rate,
+            thrust_fraction)
+        self.output.notify("AP_CMD_YAW_RATE", yaw_rate)
+        self.output.notify("AP_CMD_THRUST", thrust_fraction)
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+def rudder_to_turn_rate(rudder: float, max_rudder: float, max_turn_rate: float) -> float:
+    """Degrees of rudder to a body turn rate (deg/s, positive clockwise), saturated."""
+    fraction = max(-1.0, min(1.0, rudder / max_rudder)) if max_rudder > 0 else 0.0
+    return fraction * max_turn_rate
+
+
+class AutopilotInput(App):
+    name = "iMAVLink"
+
+    def __init__(self, bridge: MavlinkBridge) -> None:
+        super().__init__(bridge.bus)
+        self.bridge = bridge
+
+    def iterate(self, now: float) -> None:
+        self.bridge.receive(now)
+
+
+class AutopilotOutput(App):
+    name = "iMAVLinkOut"
+
+    def __init__(self, bridge: MavlinkBridge) -> None:
+        super().__init__(bridge.bus)
+        self.bridge = bridge
+        self._mail: list[Message] = []
+
+    def subscriptions(self) -> set[str]:
+        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR"}
+
+    def on_mail(self, mail: list[Message], now: float) -> None:
+        self._mail = mail
+
+    def iterate(self, now: float) -> None:
+        self.bridge.send(self._mail, now)
+        self._mail = []
+
+    def close(self) -> None:
+        self.bridge.close()
+
+
+def mission_origin(mission: Mission) -> Origin:
+    lat = mission.globals.entry("LatOrigin")
+    lon = mission.globals.entry("LongOrigin")
+    if lat is None or lon is None:
+        where = lat or lon
+        if where is not None:
+            raise where.error("LatOrigin and LongOrigin must both be given")
+        raise MissionError(mission.path, 1, "mission needs LatOrigin and LongOrigin")
+    return Origin(lat.as_float(), lon.as_float())
+
+
+def open_connection(config: BridgeConfig) -> mavutil.mavfile:
+    """A pymavlink connection for ``tcp:host:port``, ``udp:…``, ``udpout:…`` or a serial device."""
+    return mavutil.mavlink_connection(
+        config.connect, baud=config.baud, source_system=config.system_id,
+        source_component=config.component_id, dialect="ardupilotmega", autoreconnect=True)

@@ -1,0 +1,167 @@
+"""What a skipper wants after a run: which tasks ran, in what order, how each ended, and a plot."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mavhelm.companion.bus import Message
+from mavhelm.companion.mission import Mission
+from mavhelm.sitl.truth import Truth
+
+
+@dataclass
+class TaskRecord:
+    name: str
+    started: float
+    ended: float | None = None
+    cause: str | None = None
+
+
+@dataclass
+class Summary:
+    tasks: list[TaskRecord] = field(default_factory=list)
+    online_at: float | None = None
+    ended_at: float | None = None
+    end_task: str | None = None
+    distance: float = 0.0
+    sim_time: float = 0.0
+    wall_time: float = 0.0
+    errors: list[str] = field(default_factory=list)
+
+    @property
+    def speedup(self) -> float:
+        return self.sim_time / self.wall_time if self.wall_time > 0 else math.inf
+
+
+def summarize(messages: Sequence[Message], track: Sequence[Truth],
+              wall_time: float = 0.0) -> Summary:
+    summary = Summary(wall_time=wall_time)
+    open_tasks: dict[str, TaskRecord] = {}
+    for m in messages:
+        if m.name == "TASK_STARTED":
+            record = TaskRecord(m.string, m.time)
+            summary.tasks.append(record)
+            open_tasks[m.string] = record
+        elif m.name == "TASK_ENDED":
+            name, _, cause = m.string.rpartition(":")
+            record = open_tasks.pop(name, None)
+            if record is not None:
+                record.ended, record.cause = m.time, cause
+        elif m.name == "HELM_STATE" and m.string == "ONLINE" and summary.online_at is None:
+            summary.online_at = m.time
+        elif m.name == "MISSION_ENDED" and summary.ended_at is None:
+            summary.ended_at, summary.end_task = m.time, m.string
+        elif m.name.endswith("_ERROR"):
+            summary.errors.append(f"{m.time:8.1f}  {m.name} = {m.string}")
+    summary.distance = sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(track, track[1:]))
+    summary.sim_time = track[-1].t - track[0].t if len(track) > 1 else 0.0
+    return summary
+
+
+def format_summary(summary: Summary) -> str:
+    lines = ["Tasks (in the order they went active):"]
+    for i, task in enumerate(summary.tasks, 1):
+        end = (f"ended {task.ended:7.1f} s  ({task.cause})" if task.ended is not None
+               else "still active at the end")
+        lines.append(f"  {i:2d}. {task.name:<20s} started {task.started:7.1f} s  {end}")
+    if summary.online_at is not None:
+        lines.append(f"Helm online at {summary.online_at:.1f} s (operator switched to GUIDED)")
+    if summary.ended_at is not None:
+        mission_time = summary.ended_at - (summary.online_at or 0.0)
+        lines.append(f"Mission ended by {summary.end_task} at {summary.ended_at:.1f} s "
+                     f"({mission_time:.1f} s after hand-over)")
+    else:
+        lines.append("Mission did NOT reach EndMission")
+    lines.append(f"Distance travelled {summary.distance:.0f} m in {summary.sim_time:.0f} s of "
+                 f"simulated time; wall time {summary.wall_time:.1f} s "
+                 f"({summary.speedup:.0f}x real time)")
+    if summary.errors:
+        lines.append("Errors:")
+        lines.extend(f"  {e}" for e in summary.errors)
+    return "\n".join(lines)
+
+
+def waypoints(mission: Mission) -> list[tuple[str, float, float]]:
+    """(task name, x, y) of every Location in the mission's tasks."""
+    points = []
+    for block in mission.tasks:
+        name = block.get("Name", block.name) or block.name
+        for entry in block.all("Location"):
+            parts = entry.value.split(",")
+            try:
+                points.append((name, float(parts[0]), float(parts[1])))
+            except (ValueError, IndexError):
+                continue
+    return points
+
+
+def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Mission,
+             path: str | Path, title: str = "") -> None:
+    """Track coloured by the task that held the rudder, waypoints, and heading over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    owners = [(m.time, m.string) for m in messages if m.name == "HELM_RUDDER_OWNER"]
+    names = list(dict.fromkeys(name for _, name in owners))
+    colours = {name: plt.cm.tab10(i % 10) for i, name in enumerate(names)}
+
+    def owner_at(t: float) -> str:
+        current = "none"
+        for when, name in owners:
+            if when > t:
+                break
+            current = name
+        return current
+
+    fig, (ax, ax_h) = plt.subplots(1, 2, figsize=(13, 6),
+                                   gridspec_kw={"width_ratios": [1.2, 1]})
+    xs = [s.x for s in track]
+    ys = [s.y for s in track]
+    ax.plot(xs, ys, color="0.8", lw=1, zorder=1)
+    segments: dict[str, tuple[list[float], list[float]]] = {}
+    for s in track:
+        name = owner_at(s.t)
+        if name == "none":
+            continue
+        seg = segments.setdefault(name, ([], []))
+        seg[0].append(s.x)
+        seg[1].append(s.y)
+    for name, (sx, sy) in segments.items():
+        ax.scatter(sx, sy, s=2, color=colours.get(name, "k"), label=f"rudder: {name}", zorder=2)
+    for name, x, y in waypoints(mission):
+        ax.plot(x, y, marker="*", ms=14, color="crimson", zorder=3)
+        ax.annotate(name, (x, y), textcoords="offset points", xytext=(6, 6))
+    if track:
+        ax.plot(xs[0], ys[0], "go", label="start")
+        ax.plot(xs[-1], ys[-1], "ks", label="end")
+    ax.set_xlabel("X east (m)")
+    ax.set_ylabel("Y north (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8, markerscale=4)
+    ax.set_title(title or "Track (ground truth)")
+    ax_h.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
+    for when, name in owners:
+        ax_h.axvline(when, color=colours.get(name, "k"), ls="--", lw=0.8)
+        ax_h.annotate(name, (when, 365), rotation=90, fontsize=7, va="top")
+    ax_h.set_ylim(0, 370)
+    ax_h.set_xlabel("time (s)")
+    ax_h.set_ylabel("heading (deg)")
+    ax_h.set_title("Heading; dashed: rudder changes hands")
+    ax_h.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_track_csv(track: Sequence[Truth], path: str | Path) -> None:
+    with open(path, "w") as f:
+        f.write("t,x,y,heading,surge,yaw_rate\n")
+        for s in track:
+            f.write(f"{s.t:.2f},{s.x:.3f},{s.y:.3f},{s.heading:.2f},{s.surge:.3f},"
+                    f"{s.yaw_rate:.3f}\n")

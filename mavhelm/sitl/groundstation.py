@@ -1,0 +1,109 @@
+"""A scripted operator's ground station: what QGroundControl or MAVProxy would send.
+
+It speaks as system 255 (ArduPilot's default MAV_GCS_SYSID), sends a heartbeat each second,
+and arms and switches modes with COMMAND_LONG exactly as an operator's ground station does;
+the demo and the tests use it to hand control to the helm and take it back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+GCS_SYSTEM_ID = 255
+GCS_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER
+ROVER_MODE_NUMBERS = {name: number for number, name in mavutil.mode_mapping_rover.items()}
+
+
+@dataclass
+class GroundStation:
+    conn: mavutil.mavfile
+    target_system: int = 1
+    target_component: int = 1
+    mode: str | None = None
+    armed: bool = False
+    acks: list[tuple[float, int, int]] = field(default_factory=list)
+    statustexts: list[tuple[float, str]] = field(default_factory=list)
+    heartbeats: int = 0
+    _next_heartbeat: float = 0.0
+
+    @classmethod
+    def connect(cls, device: str) -> GroundStation:
+        conn = mavutil.mavlink_connection(device, source_system=GCS_SYSTEM_ID,
+                                          source_component=GCS_COMPONENT_ID,
+                                          dialect="ardupilotmega")
+        return cls(conn)
+
+    def tick(self, now: float) -> None:
+        if now >= self._next_heartbeat:
+            self._next_heartbeat = now + 1.0
+            self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
+                                         0, 0, mavlink.MAV_STATE_ACTIVE)
+        while (msg := self.conn.recv_msg()) is not None:
+            self._handle(msg, now)
+
+    def _handle(self, msg, now: float) -> None:
+        if msg.get_srcSystem() != self.target_system or msg.get_srcComponent() != 1:
+            return
+        kind = msg.get_type()
+        if kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
+            self.heartbeats += 1
+            self.mode = mavutil.mode_mapping_rover.get(msg.custom_mode, str(msg.custom_mode))
+            self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        elif kind == "COMMAND_ACK":
+            self.acks.append((now, msg.command, msg.result))
+        elif kind == "STATUSTEXT":
+            self.statustexts.append((now, msg.text))
+
+    def command(self, command: int, *params: float) -> None:
+        values = list(params) + [0.0] * (7 - len(params))
+        self.conn.mav.command_long_send(self.target_system, self.target_component, command, 0,
+                                        *values)
+
+    def arm(self, arm: bool = True) -> None:
+        self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0)
+
+    def set_mode(self, name: str) -> None:
+        self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                     float(ROVER_MODE_NUMBERS[name.upper()]))
+
+    def last_ack(self, command: int) -> int | None:
+        for _, cmd, result in reversed(self.acks):
+            if cmd == command:
+                return result
+        return None
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+class Operator:
+    """Hands the vehicle to the helm: arm when the autopilot allows it, then switch to GUIDED.
+
+    Retries every ``retry`` seconds of simulated time, as a person clicking again would, since
+    ArduPilot refuses to arm or enter GUIDED until its EKF has a position.
+    """
+
+    def __init__(self, gcs: GroundStation, mode: str = "GUIDED", retry: float = 2.0) -> None:
+        self.gcs = gcs
+        self.mode = mode
+        self.retry = retry
+        self._next_try = 0.0
+        self.handed_over_at: float | None = None
+
+    def tick(self, now: float) -> None:
+        self.gcs.tick(now)
+        if self.handed_over_at is not None or self.gcs.mode is None:
+            return
+        if self.gcs.armed and self.gcs.mode == self.mode:
+            self.handed_over_at = now
+            return
+        if now < self._next_try:
+            return
+        self._next_try = now + self.retry
+        if not self.gcs.armed:
+            self.gcs.arm()
+        else:
+            self.gcs.set_mode(self.mode)

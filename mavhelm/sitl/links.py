@@ -1,0 +1,270 @@
+"""The simulator's MAVLink links: TCP server ports like ArduPilot SITL, plus UDP outputs.
+
+Every link has its own MAVLink encoder (own sequence numbers) and decoder, its own stream
+rates, and exact byte counters: ``bytes_sent`` counts bytes the kernel accepted, and
+``bytes_received`` bytes read from the socket, so a lockstep driver can wait for both sides to
+have seen everything. Sockets are non-blocking; nothing here sleeps.
+
+Link faults (link_drop, link_stall, link_garbage, link_duplicate, link_reorder) from a
+``Scenario`` are applied to whole packets on the way out; drop and stall also act on input.
+"""
+
+from __future__ import annotations
+
+import errno
+import socket
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+LINK_FAULTS = ("link_drop", "link_stall", "link_garbage", "link_duplicate", "link_reorder")
+
+
+class _Capture:
+    """File-like sink for pymavlink's encoder: collects packets."""
+
+    __slots__ = ("packets",)
+
+    def __init__(self) -> None:
+        self.packets: list[bytes] = []
+
+    def write(self, buf: bytes) -> None:
+        self.packets.append(bytes(buf))
+
+
+class Link:
+    """One connection: a TCP client accepted on a server port, or a UDP output."""
+
+    def __init__(self, sock: socket.socket, peer: tuple[str, int], index: int, kind: str,
+                 srcSystem: int = 1, srcComponent: int = 1, scenario: Any = None) -> None:
+        self.sock = sock
+        self.peer = peer
+        self.index = index  # position in the simulator's port list (UDP outs follow the ports)
+        self.kind = kind  # "tcp" or "udp"
+        self.bytes_sent = 0
+        self.bytes_received = 0
+        self.closed = False
+        self._capture = _Capture()
+        self.mav = mavlink.MAVLink(self._capture, srcSystem=srcSystem, srcComponent=srcComponent)
+        self.parser = mavlink.MAVLink(None, srcSystem=srcSystem, srcComponent=srcComponent)
+        self.parser.robust_parsing = True
+        self._out = bytearray()  # bytes accepted for sending, not yet written (TCP)
+        self._dgrams: list[bytes] = []  # UDP datagrams not yet sent
+        self._held: list[bytes] = []  # packets held by a link_stall
+        self._reorder: bytes | None = None  # packet waiting to be swapped with the next
+        # stream scheduling: msgid → interval (s); next due time
+        self.intervals: dict[int, float] = {}
+        self.next_due: dict[int, float] = {}
+        self.systems_seen: set[int] = set()
+        self.scenario = scenario
+        self._rng = scenario.rng(f"link{index}") if scenario is not None else None
+        self._active: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ faults
+    def update_faults(self, now: float) -> None:
+        """Look up this link's active link faults once per step."""
+        if self.scenario is None:
+            return
+        was_stalled = "link_stall" in self._active
+        active: dict[str, Any] = {}
+        for kind in LINK_FAULTS:
+            for f in self.scenario.active(kind, now):
+                target = f.params.get("link") if f.params else None
+                if target is None or int(target) == self.index:
+                    active[kind] = f
+                    break
+        self._active = active
+        if was_stalled and "link_stall" not in active and self._held:
+            held, self._held = self._held, []
+            for pkt in held:
+                self._queue(pkt)
+
+    def input_blocked(self) -> bool:
+        return "link_stall" in self._active
+
+    def input_dropped(self) -> bool:
+        return "link_drop" in self._active
+
+    # ------------------------------------------------------------------ output
+    def send(self, msg: Any) -> None:
+        """Encode with this link's sequence numbers and queue for the socket."""
+        self.mav.send(msg)
+        packets = self._capture.packets
+        for pkt in packets:
+            self.send_raw(pkt)
+        packets.clear()
+
+    def send_raw(self, pkt: bytes) -> None:
+        """Queue an already-encoded packet (forwarding), through the link faults."""
+        if not self._active:
+            self._queue(pkt)
+            return
+        a = self._active
+        if "link_drop" in a:
+            return
+        if "link_stall" in a:
+            self._held.append(pkt)
+            return
+        rng = self._rng
+        if "link_garbage" in a and rng.random() < float(a["link_garbage"].params.get("prob", 0.1)):
+            n = int(rng.integers(1, 16))
+            self._queue(rng.integers(0, 256, n, dtype="uint8").tobytes())
+        if "link_reorder" in a:
+            if self._reorder is not None:
+                first, self._reorder = self._reorder, None
+                self._queue(pkt)
+                self._queue(first)
+                return
+            if rng.random() < float(a["link_reorder"].params.get("prob", 0.1)):
+                self._reorder = pkt
+                return
+        self._queue(pkt)
+        if "link_duplicate" in a and rng.random() < float(
+                a["link_duplicate"].params.get("prob", 0.1)):
+            self._queue(pkt)
+
+    def _queue(self, data: bytes) -> None:
+        if self.kind == "udp":
+            self._dgrams.append(data)
+        else:
+            self._out += data
+
+    def flush(self) -> None:
+        """Write as much as the kernel takes now; keep the rest for the next call."""
+        if self._reorder is not None and "link_reorder" not in self._active:
+            self._queue(self._reorder)
+            self._reorder = None
+        if self.closed:
+            self._out.clear()
+            self._dgrams.clear()
+            return
+        if self.kind == "udp":
+            while self._dgrams:
+                d = self._dgrams[0]
+                try:
+                    n = self.sock.send(d)
+                except (BlockingIOError, InterruptedError):
+                    return
+                except OSError:
+                    n = 0  # e.g. ICMP port unreachable: the datagram is lost
+                else:
+                    self.bytes_sent += n
+                self._dgrams.pop(0)
+            return
+        while self._out:
+            try:
+                n = self.sock.send(self._out)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                self.close()
+                return
+            if n <= 0:
+                return
+            self.bytes_sent += n
+            del self._out[:n]
+
+    @property
+    def pending(self) -> int:
+        """Bytes queued but not yet written."""
+        return len(self._out) + sum(len(d) for d in self._dgrams)
+
+    # ------------------------------------------------------------------ input
+    def receive(self) -> list[Any]:
+        """Read everything available now and decode it."""
+        if self.closed or self.input_blocked():
+            return []
+        msgs: list[Any] = []
+        while True:
+            try:
+                data = self.sock.recv(65536)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError as e:
+                if self.kind == "udp" and e.errno in (errno.ECONNREFUSED, errno.EHOSTUNREACH):
+                    continue
+                self.close()
+                break
+            if not data:
+                if self.kind == "tcp":
+                    self.close()
+                break
+            self.bytes_received += len(data)
+            if self.input_dropped():
+                continue
+            try:
+                got = self.parser.parse_buffer(data)
+            except Exception:  # noqa: BLE001 - a corrupt stream must never stop the simulator
+                got = None
+            if got:
+                msgs.extend(m for m in got if m.get_type() != "BAD_DATA")
+        return msgs
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            try:
+                self.sock.close()
+            except OSError:
+                pass
+
+
+class LinkHub:
+    """Listening TCP ports and UDP outputs; owns every live Link."""
+
+    def __init__(self, ports: Sequence[int], host: str = "127.0.0.1",
+                 udp_out: Iterable[tuple[str, int]] = (), srcSystem: int = 1,
+                 srcComponent: int = 1, scenario: Any = None) -> None:
+        self.servers: list[socket.socket] = []
+        self.ports: list[int] = []
+        self.links: list[Link] = []
+        self._src = (srcSystem, srcComponent)
+        self.scenario = scenario
+        self.new_links: list[Link] = []
+        for port in ports:
+            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            s.bind((host, int(port)))
+            s.listen(8)
+            s.setblocking(False)
+            self.servers.append(s)
+            self.ports.append(s.getsockname()[1])
+        for j, (uhost, uport) in enumerate(udp_out):
+            u = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            u.setblocking(False)
+            u.connect((uhost, int(uport)))
+            self._add(Link(u, (uhost, int(uport)), len(self.ports) + j, "udp", *self._src,
+                           scenario=scenario))
+
+    def _add(self, link: Link) -> None:
+        self.links.append(link)
+        self.new_links.append(link)
+
+    def accept(self) -> None:
+        """Take every pending TCP connection."""
+        for i, s in enumerate(self.servers):
+            while True:
+                try:
+                    c, peer = s.accept()
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:
+                    break
+                c.setblocking(False)
+                c.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                self._add(Link(c, peer, i, "tcp", *self._src, scenario=self.scenario))
+
+    def prune(self) -> None:
+        self.links = [lk for lk in self.links if not lk.closed]
+
+    def close(self) -> None:
+        for lk in self.links:
+            lk.close()
+        for s in self.servers:
+            try:
+                s.close()
+            except OSError:
+                pass
+        self.links = []
+        self.servers = []

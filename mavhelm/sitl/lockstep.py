@@ -1,0 +1,106 @@
+"""Lockstep: the simulator and its MAVLink peers share one simulated clock over real sockets.
+
+Each step the clock advances, the simulator steps and emits, every byte it sent is waited for
+at each peer's socket, the peers tick, and every byte they sent is waited for at the
+simulator's socket. The wait compares byte counts (the simulator's link counters against
+pymavlink's ``total_bytes_*`` plus what sits in the socket, read with FIONREAD), so the run is
+deterministic without sleeps, whatever the protocol carries.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import select
+import struct
+import termios
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pymavlink import mavutil
+
+from mavhelm.companion.clock import SimClock
+
+
+class LockstepError(RuntimeError):
+    pass
+
+
+def pending_bytes(sock) -> int:
+    """Bytes waiting in a socket's receive queue."""
+    raw = fcntl.ioctl(sock.fileno(), termios.FIONREAD, b"\0\0\0\0")
+    return struct.unpack("i", raw)[0]
+
+
+@dataclass
+class Peer:
+    conn: mavutil.mavfile
+    tick: Callable[[float], None]
+    link: object | None = None
+
+
+class Lockstep:
+    def __init__(self, sim, clock: SimClock, dt: float, wall_timeout: float = 5.0) -> None:
+        self.sim = sim
+        self.clock = clock
+        self.dt = dt
+        self.wall_timeout = wall_timeout
+        self.peers: list[Peer] = []
+
+    def add_peer(self, conn: mavutil.mavfile, tick: Callable[[float], None]) -> None:
+        """A pymavlink connection to one of the simulator's TCP ports, and what to run each step."""
+        peer = Peer(conn, tick)
+        peer.link = self._wait_for_link(conn)
+        self.peers.append(peer)
+
+    def _wait_for_link(self, conn: mavutil.mavfile):
+        local = conn.port.getsockname()
+        deadline = time.monotonic() + self.wall_timeout
+        while time.monotonic() < deadline:
+            self.sim.service(self.clock.now())
+            for link in self.sim.links:
+                if tuple(link.peer[:2]) == tuple(local[:2]):
+                    return link
+            select.select([], [], [], 0.001)
+        raise LockstepError(f"the simulator never accepted the connection from {local}")
+
+    def _wait(self, done: Callable[[], bool], sock, what: str) -> None:
+        if done():
+            return
+        deadline = time.monotonic() + self.wall_timeout
+        while not done():
+            if time.monotonic() > deadline:
+                raise LockstepError(f"lockstep stalled waiting for {what}")
+            select.select([sock], [], [], 0.001)
+
+    def deliver_to_peers(self) -> None:
+        for peer in self.peers:
+            link, conn = peer.link, peer.conn
+            self._wait(
+                lambda: conn.mav.total_bytes_received + pending_bytes(conn.port) >= link.bytes_sent,
+                conn.port, "a peer to receive the simulator's bytes")
+
+    def deliver_to_sim(self) -> None:
+        for peer in self.peers:
+            link, conn = peer.link, peer.conn
+            self._wait(
+                lambda: link.bytes_received + pending_bytes(link.sock) >= conn.mav.total_bytes_sent,
+                link.sock, "the simulator to receive a peer's bytes")
+
+    def step(self) -> float:
+        now = self.clock.advance(self.dt)
+        self.sim.step(now)
+        self.deliver_to_peers()
+        for peer in self.peers:
+            peer.tick(now)
+        self.deliver_to_sim()
+        return now
+
+    def run_until(self, done: Callable[[float], bool], max_time: float) -> bool:
+        """Step until done(now) or max_time of simulated time has passed; returns done."""
+        end = self.clock.now() + max_time
+        while self.clock.now() < end:
+            now = self.step()
+            if done(now):
+                return True
+        return False

@@ -1,0 +1,40 @@
+"""ConstantHeading: hold a compass heading until the task times out."""
+
+from __future__ import annotations
+
+from mavhelm.companion.mission import Block, Entry
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes, parse_thrust
+from mavhelm.tasks.pid import HelmGains
+
+
+class ConstantHeading(Task):
+    keyword = "ConstantHeading"
+    params = ("Heading", "Thrust")
+
+    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
+        self.heading: float | None = None
+        self.thrust: float | None = None
+        super().__init__(block, gains)
+
+    def set_param(self, key: str, entry: Entry) -> bool:
+        if key == "heading":
+            self.heading = entry.as_float() % 360.0
+        elif key == "thrust":
+            self.thrust = parse_thrust(entry)
+        else:
+            return False
+        return True
+
+    def check(self, block: Block) -> None:
+        if self.heading is None:
+            raise block.error(f"ConstantHeading task {self.name} needs Heading (degrees)")
+
+    def needs(self) -> set[str]:
+        return {HEADING}
+
+    def update(self, nav: NavState, now: float) -> Votes | None:
+        assert self.heading is not None
+        votes: Votes = {"RUDDER": self.steer(self.heading, nav)}
+        if self.thrust is not None:
+            votes["THRUST"] = self.thrust
+        return votes

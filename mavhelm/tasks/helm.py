@@ -1,0 +1,161 @@
+"""The Helm app (spec 1): runs the mission's tasks and arbitrates their votes on the actuators.
+
+Online only while the latest ``HELM_ONLINE`` is 1 (the MAVLink bridge decides: link up and the
+autopilot in an online mode). Offline, tasks still hear every message (so start flags are
+not lost) but none is run and no ``DESIRED_*`` is posted: the human has the vehicle.
+"""
+
+from __future__ import annotations
+
+from mavhelm.companion.app import App
+from mavhelm.companion.bus import Bus, Message
+from mavhelm.companion.mission import Block, Mission, MissionError
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes
+from mavhelm.tasks.end_mission import EndMission
+from mavhelm.tasks.overall_timeout import OverallTimeOut
+from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.registry import build_task
+
+ONLINE_VAR = "HELM_ONLINE"
+MAIN_ACTUATORS = ("RUDDER", "THRUST", "ELEVATOR")
+
+
+class Helm(App):
+    """pHelm: builds tasks from the mission, feeds them mail, posts the winning votes."""
+
+    name = "pHelm"
+
+    def __init__(self, bus: Bus, block: Block, task_blocks: list[Block]) -> None:
+        super().__init__(bus)
+        self.block = block
+        self.gains = HelmGains.from_block(block)
+        self.tasks: list[Task] = []
+        seen: dict[str, Block] = {}
+        for tb in task_blocks:
+            task = build_task(tb, self.gains)
+            other = seen.get(task.name)
+            if other is not None:
+                raise tb.error(
+                    f"task name {task.name!r} is already used at {other.file}:{other.line}; "
+                    "give each task its own Name"
+                )
+            seen[task.name] = tb
+            self.tasks.append(task)
+        for cls in (EndMission, OverallTimeOut):
+            if not any(isinstance(t, cls) for t in self.tasks):
+                raise block.error(
+                    f"the helm refuses a mission without an {cls.keyword} task "
+                    f"(add Task = {cls.keyword} {{ … }})"
+                )
+        self.nav = NavState()
+        self.online = False
+        self.mission_started = False
+        self.mission_ended = False
+        self._state_posted: bool | None = None
+        self._rudder_owner: str | None = None
+        self._aux_actuators: list[str] = []
+        self.last_winners: dict[str, tuple[float, Task]] = {}
+
+    @classmethod
+    def from_mission(cls, bus: Bus, mission: Mission) -> Helm:
+        """The helm of a parsed mission file; raises a located MissionError if it cannot run."""
+        block = mission.process(cls.name)
+        if block is None:
+            raise MissionError(
+                mission.path, 1, "no ProcessConfig = pHelm block: the helm has no mission"
+            )
+        return cls(bus, block, mission.tasks or block.tasks)
+
+    def task(self, name: str) -> Task:
+        for t in self.tasks:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+    def subscriptions(self) -> set[str]:
+        subs = {ONLINE_VAR}
+        for t in self.tasks:
+            subs.update(t.start_flags)
+            subs.update(t.needs())
+        if HEADING in subs:
+            subs.add("NAV_YAW")
+        return subs
+
+    def on_mail(self, mail: list[Message], now: float) -> None:
+        for msg in mail:
+            if msg.name == ONLINE_VAR:
+                self.online = msg.is_double and msg.double == 1.0
+            self.nav.update(msg)
+            for t in self.tasks:
+                t.offer(msg, now)
+
+    def iterate(self, now: float) -> None:
+        if self._state_posted != self.online:
+            self.notify("HELM_STATE", "ONLINE" if self.online else "OFFLINE")
+            if self.online and self.mission_started:
+                for t in self.tasks:
+                    if t.active:
+                        t.resume()
+            if not self.online:
+                self._set_rudder_owner("none")
+            self._state_posted = self.online
+        if self.online and not self.mission_started:
+            self.mission_started = True
+            for t in self.tasks:
+                if t.initial_on:
+                    t.start(now)
+        if not self.online:
+            self._flush()
+            return
+        locked = [t for t in self.tasks if isinstance(t, EndMission) and t.active]
+        running = locked or [t for t in self.tasks if t.active]
+        ballots: list[tuple[Task, Votes]] = []
+        for t in running:
+            votes = t.step(self.nav, now)
+            if votes:
+                ballots.append((t, votes))
+        self._flush()
+        self.last_winners = arbitrate(ballots)
+        self._post_desired()
+
+    def _flush(self) -> None:
+        for t in self.tasks:
+            for name, value in t.take_notifications():
+                self.notify(name, value)
+                if name == "TASK_STARTED" and isinstance(t, EndMission) and not self.mission_ended:
+                    self.mission_ended = True
+                    self.notify("MISSION_ENDED", t.name)
+
+    def _post_desired(self) -> None:
+        limits = {
+            "RUDDER": self.gains.max_rudder,
+            "THRUST": self.gains.max_thrust,
+            "ELEVATOR": self.gains.max_elevator,
+        }
+        for actuator in self.last_winners:
+            if actuator not in limits and actuator not in self._aux_actuators:
+                self._aux_actuators.append(actuator)
+        for actuator in (*MAIN_ACTUATORS, *self._aux_actuators):
+            value = self.last_winners[actuator][0] if actuator in self.last_winners else 0.0
+            limit = limits.get(actuator)
+            if limit is not None:
+                value = max(-limit, min(limit, value))
+            self.notify(f"DESIRED_{actuator}", value)
+        owner = self.last_winners.get("RUDDER")
+        self._set_rudder_owner(owner[1].name if owner else "none")
+
+    def _set_rudder_owner(self, owner: str) -> None:
+        if owner != self._rudder_owner:
+            self._rudder_owner = owner
+            self.notify("HELM_RUDDER_OWNER", owner)
+
+
+def arbitrate(ballots: list[tuple[Task, Votes]]) -> dict[str, tuple[float, Task]]:
+    """Per actuator, the vote of the strictly lowest priority number; a tie keeps the first."""
+    winners: dict[str, tuple[float, Task]] = {}
+    for task, votes in ballots:
+        for actuator, value in votes.items():
+            best = winners.get(actuator)
+            if best is None or task.priority < best[1].priority:
+                winners[actuator] = (value, task)
+    return winners

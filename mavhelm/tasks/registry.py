@@ -1,0 +1,39 @@
+"""Task keyword → class. A new task type is one module plus one line here."""
+
+from __future__ import annotations
+
+from mavhelm.companion.mission import Block
+from mavhelm.tasks.base import Task
+from mavhelm.tasks.end_mission import EndMission
+from mavhelm.tasks.heading import ConstantHeading
+from mavhelm.tasks.overall_timeout import OverallTimeOut
+from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.timer import Timer
+from mavhelm.tasks.waypoint import GoToWayPoint
+
+TASK_TYPES: dict[str, type[Task]] = {
+    "gotowaypoint": GoToWayPoint,
+    "constantheading": ConstantHeading,
+    "timer": Timer,
+    "timeout": Timer,
+    "overalltimeout": OverallTimeOut,
+    "endmission": EndMission,
+}
+
+
+def known_types() -> list[str]:
+    """Keywords as a user would write them, for error messages."""
+    names = {cls.keyword for cls in TASK_TYPES.values()} | {"TimeOut"}
+    return sorted(names, key=str.lower)
+
+
+def task_class(keyword: str) -> type[Task] | None:
+    return TASK_TYPES.get(keyword.strip().lower())
+
+
+def build_task(block: Block, gains: HelmGains | None = None) -> Task:
+    """Build one task from its ``Task = Type { … }`` block, or raise a located MissionError."""
+    cls = task_class(block.name)
+    if cls is None:
+        raise block.error(f"unknown task type {block.name!r} (known: {', '.join(known_types())})")
+    return cls(block, gains)

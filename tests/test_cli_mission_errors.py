@@ -1,0 +1,90 @@
+"""A malformed mission is refused by the real command with file:line and one reason; nothing starts.
+
+The companion is pointed at a TCP port where nothing listens: if validation let the mission
+through, it would try to connect and fail differently (a connection error, not exit code 2).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+GOOD_TASKS = """
+    Task = GoToWayPoint
+    {
+        Name = Leg1
+        Location = 10, 20
+        Radius = 5
+    }
+    Task = OverallTimeOut
+    {
+        TimeOut = 100
+        FinishFlag = EndMission
+    }
+    Task = EndMission
+    {
+        StartFlag = EndMission
+    }
+"""
+
+
+def mission(helm_body: str) -> str:
+    return textwrap.dedent("""\
+        LatOrigin = 56.0
+        LongOrigin = -5.0
+        ProcessConfig = pNav
+        {
+            X = GPS @ 2.0
+            Y = GPS @ 2.0
+            Yaw = INS @ 1.0
+        }
+        ProcessConfig = pHelm
+        {
+        """) + helm_body + "}\n"
+
+
+CASES = {
+    "unclosed brace": (mission(GOOD_TASKS).rstrip().rstrip("}"), 7, "never closed"),
+    "unknown task type": (mission(GOOD_TASKS.replace("GoToWayPoint", "GoToWayPiont")), 10,
+                          "GoToWayPiont"),
+    "missing required parameter": (mission(GOOD_TASKS.replace("Location = 10, 20", "")), 10,
+                                   "Location"),
+    "bad number": (mission(GOOD_TASKS.replace("Radius = 5", "Radius = five")), 14, "Radius"),
+    "no EndMission": (mission(GOOD_TASKS.split("    Task = EndMission")[0]), 7, "EndMission"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_malformed_mission_is_refused_with_file_line_and_reason(tmp_path, case):
+    text, line, word = CASES[case]
+    path = tmp_path / "bad.moos"
+    path.write_text(text)
+    proc = subprocess.run(
+        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+         "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
+        capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith(f"mavhelm: {path}:{line}: "), lines[0]
+    assert word in lines[0]
+    assert not (tmp_path / "logs").exists() or not any((tmp_path / "logs").iterdir())
+
+
+def test_good_mission_passes_validation_and_then_tries_the_link(tmp_path):
+    """The control case: the same mission, well formed, gets past validation to the link."""
+    path = tmp_path / "good.moos"
+    path.write_text(mission(GOOD_TASKS))
+    from mavhelm.companion.bus import Bus
+    from mavhelm.companion.clock import SimClock
+    from mavhelm.companion.mission import load_mission
+    from mavhelm.nav.navigator import Navigator
+    from mavhelm.tasks.helm import Helm
+
+    loaded = load_mission(path)
+    bus = Bus(SimClock())
+    assert Helm.from_mission(bus, loaded) is not None
+    assert Navigator.from_mission(bus, loaded) is not None

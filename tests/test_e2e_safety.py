@@ -1,0 +1,124 @@
+"""Safety, end to end: loss of navigation and loss of the autopilot link stop helm actuation.
+
+Faults are injected in the simulator with a scenario (the same file format a user replays), and
+the companion sees them only through MAVLink, as it would on the water.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.mission import parse_mission
+from mavhelm.sitl.faults import Scenario
+from mavhelm.sitl.harness import SimulatedRun
+
+pytestmark = pytest.mark.slow
+
+MISSION = """
+LatOrigin = 56.4120
+LongOrigin = -5.4760
+ProcessConfig = iMAVLink
+{{
+    OnlineModes = GUIDED
+}}
+ProcessConfig = pNav
+{{
+    X   = {x_queue}
+    Y   = {x_queue}
+    Yaw = INS @ 1.0
+}}
+ProcessConfig = pHelm
+{{
+    Task = GoToWayPoint
+    {{
+        Name = FarAway
+        Location = 0, 3000
+        Radius = 5
+        Thrust = 60
+        TimeOut = NEVER
+        FinishFlag = EndMission
+    }}
+    Task = OverallTimeOut
+    {{
+        TimeOut = 2000
+        FinishFlag = EndMission
+    }}
+    Task = EndMission
+    {{
+        Name = AllStop
+        StartFlag = EndMission
+    }}
+}}
+"""
+
+
+def start(x_queue: str, scenario: str) -> SimulatedRun:
+    mission = parse_mission(MISSION.format(x_queue=x_queue), "safety.moos")
+    return SimulatedRun.start(mission, fast_start=True,
+                              scenario=Scenario.from_text(scenario, "safety.scn"),
+                              record={"NAV_Y_SOURCE"})
+
+
+def actuation_between(run: SimulatedRun, t0: float, t1: float) -> list:
+    return [m for m in run.values("DESIRED_RUDDER") + run.values("DESIRED_THRUST")
+            if t0 <= m.time < t1]
+
+
+def test_gps_loss_with_no_other_source_starves_the_motion_task():
+    with start("GPS @ 2.0", "seed = 1\ngps_outage from 40 to 400\n") as run:
+        run.hand_over()
+        assert run.run_until(lambda _n: run.mission_ended(), 120.0)
+        last_fix = max(m.time for m in run.values("NAV_X"))
+        assert 39.0 <= last_fix <= 41.0, "NAV_X must stop when GPS stops"
+        sources = [(m.time, m.string) for m in run.values("NAV_X_SOURCE")]
+        assert sources[-1][1] == "NONE"
+        assert last_fix + 2.0 <= sources[-1][0] <= last_fix + 2.0 + 0.25
+        ended = [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway:")]
+        assert ended and ended[0].string == "FarAway:starved"
+        assert last_fix + 9.5 <= ended[0].time <= last_fix + 10.5
+        errors = [m for m in run.messages if m.name.endswith("_ERROR")]
+        assert errors and "FARAWAY" in errors[0].name.upper()
+        assert run.values("MISSION_ENDED")[0].string == "AllStop", "FinishFlag did not fire"
+        assert all(m.double == 0.0 for m in run.values("DESIRED_THRUST")
+                   if m.time >= ended[0].time)
+
+
+def test_gps_loss_falls_back_to_the_autopilot_estimate_and_pops_back():
+    with start("GPS @ 2.0, AP @ 2.0", "seed = 2\ngps_outage from 40 to 70\n") as run:
+        run.hand_over()
+        run.run_until(lambda n: n >= 90.0, 120.0)
+        sources = [(round(m.time, 1), m.string) for m in run.values("NAV_X_SOURCE")]
+        names = [s for _, s in sources]
+        assert names[:3] == ["GPS", "AP", "GPS"], sources
+        fell_back, popped = sources[1][0], sources[2][0]
+        assert 41.5 <= fell_back <= 42.5
+        assert 70.0 <= popped <= 71.5
+        assert not [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway")]
+        assert actuation_between(run, 45.0, 65.0), "the helm should keep driving on the fallback"
+
+
+def test_link_loss_puts_the_helm_offline_and_it_reengages_only_in_guided():
+    scenario = "seed = 3\nlink_drop from 30 to 40 link=0\nlink_drop from 60 to 75 link=0\n"
+    with start("GPS @ 2.0", scenario) as run:
+        run.hand_over()
+        assert run.run_until(lambda n: n >= 45.0, 60.0)
+        lost = [m.time for m in run.values("AP_LINK") if m.double == 0.0]
+        assert lost and 32.0 <= lost[0] <= 33.3, "link declared lost 3 s after the last HEARTBEAT"
+        offline = [m.time for m in run.values("HELM_ONLINE") if m.double == 0.0]
+        assert offline[0] == lost[0], "offline in the same tick the link is declared lost"
+        assert not actuation_between(run, lost[0], 40.0)
+        back = [m.time for m in run.values("HELM_ONLINE") if m.double == 1.0 and m.time > 40.0]
+        assert back and back[0] <= 42.0, "link back while still GUIDED: online again"
+
+        # second outage: the operator takes manual control while the companion cannot hear
+        run.run_until(lambda n: n >= 65.0, 30.0)
+        run.gcs.set_mode("MANUAL")
+        peer = next(p for p in run.lockstep.peers if p.conn is run.gcs.conn)
+        peer.tick = run.gcs.tick
+        run.run_until(lambda n: n >= 90.0, 30.0)
+        assert run.gcs.mode == "MANUAL"
+        assert not actuation_between(run, 63.5, 90.0), "must not re-engage in MANUAL"
+        assert [m.double for m in run.values("HELM_ONLINE")][-1] == 0.0
+        # and once the operator hands back in GUIDED, the helm resumes
+        run.gcs.set_mode("GUIDED")
+        assert run.run_until(lambda _n: run.values("HELM_ONLINE")[-1].double == 1.0, 5.0)

@@ -1,0 +1,453 @@
+"""The Helm app on a bus with a simulated clock: online/offline, arbitration, flags, lockout."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.bus import Bus, Message
+from mavhelm.companion.clock import SimClock
+from mavhelm.companion.mission import Block, Entry, Mission, MissionError
+from mavhelm.tasks.helm import Helm
+
+FILE = "helm.moos"
+
+
+class Spec:
+    """Builds Blocks with increasing line numbers, as the parser would."""
+
+    def __init__(self) -> None:
+        self.line = 1
+
+    def block(self, kind: str, name: str, *pairs: tuple[str, str]) -> Block:
+        start = self.line
+        entries = [Entry(k, v, FILE, start + 1 + i) for i, (k, v) in enumerate(pairs)]
+        self.line += len(pairs) + 3
+        return Block(kind, name, FILE, start, entries)
+
+    def task(self, kind: str, *pairs: tuple[str, str]) -> Block:
+        return self.block("Task", kind, *pairs)
+
+
+def safety(spec: Spec, timeout: str = "10000") -> list[Block]:
+    return [
+        spec.task(
+            "OverallTimeOut",
+            ("Name", "Overall"),
+            ("TimeOut", timeout),
+            ("FinishFlag", "EndMission"),
+        ),
+        spec.task("EndMission", ("Name", "Stop"), ("StartFlag", "EndMission")),
+    ]
+
+
+class Rig:
+    """Drives a helm the way the community does: subscribe, post, mail, iterate."""
+
+    def __init__(self, tasks: list[Block], spec: Spec, *helm_pairs: tuple[str, str]) -> None:
+        self.clock = SimClock(1000.0)
+        self.bus = Bus(self.clock)
+        self.bus.subscribe("probe", ["*"])
+        self.helm = Helm(self.bus, spec.block("ProcessConfig", "pHelm", *helm_pairs), tasks)
+
+    def tick(self, dt: float = 1.0, **posts: float | str) -> list[Message]:
+        """Advance, post ``posts`` at the new time, run one helm tick; return the helm's posts."""
+        now = self.clock.advance(dt)
+        self.bus.subscribe(self.helm.name, self.helm.subscriptions())
+        for name, value in posts.items():
+            self.bus.notify(name, value, "test")
+        self.bus.fetch("probe")
+        self.helm.on_mail(self.bus.fetch(self.helm.name), now)
+        self.helm.iterate(now)
+        return [m for m in self.bus.fetch("probe") if m.source == "pHelm"]
+
+
+def values(out: list[Message], name: str) -> list[float | str]:
+    return [m.value for m in out if m.name == name]
+
+
+def one(out: list[Message], name: str) -> float | str:
+    found = values(out, name)
+    assert len(found) == 1, f"{name}: {found}"
+    return found[0]
+
+
+def south_north() -> tuple[Spec, list[Block]]:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Priority", "3"),
+            ("Name", "South"),
+            ("Heading", "180"),
+            ("TimeOut", "300"),
+            ("InitialState", "OFF"),
+            ("StartFlag", "MissionStart"),
+            ("FinishFlag", "GoNorth"),
+            ("LOGPID", "true"),
+            ("Thrust", "50"),
+        ),
+        spec.task(
+            "ConstantHeading",
+            ("Priority", "3"),
+            ("Name", "North"),
+            ("Heading", "0"),
+            ("TimeOut", "120"),
+            ("InitialState", "OFF"),
+            ("StartFlag", "GoNorth"),
+            ("FinishFlag", "EndMission"),
+            ("LOGPID", "true"),
+            ("Thrust", "50"),
+        ),
+        *safety(spec),
+    ]
+    return spec, tasks
+
+
+def test_offline_helm_posts_state_but_no_desired() -> None:
+    spec, tasks = south_north()
+    rig = Rig(tasks, spec)
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "HELM_STATE") == "OFFLINE"
+    assert not [m for m in out if m.name.startswith("DESIRED_")]
+    assert not rig.helm.task("Overall").active, "the mission starts when the helm first goes online"
+
+
+def test_south_north_flag_chaining() -> None:
+    spec, tasks = south_north()
+    rig = Rig(tasks, spec)
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    assert one(out, "HELM_STATE") == "ONLINE"
+    assert one(out, "TASK_STARTED") == "Overall"
+    assert one(out, "DESIRED_RUDDER") == 0.0 and one(out, "DESIRED_THRUST") == 0.0
+    out = rig.tick(MissionStart=1.0, NAV_HEADING=90.0)
+    assert one(out, "TASK_STARTED") == "South"
+    assert one(out, "DESIRED_RUDDER") == 20.0, "heading 90 → 180: full starboard, clamped"
+    assert one(out, "DESIRED_THRUST") == 50.0
+    assert one(out, "HELM_RUDDER_OWNER") == "South"
+    assert values(out, "South_YAW_PID")
+    log = []
+    for _ in range(302):
+        log += rig.tick(NAV_HEADING=90.0)
+    assert one(log, "TASK_ENDED") == "South:timeout"
+    assert "timed out" in str(one(log, "GoNorth"))
+    assert one(log, "TASK_STARTED") == "North"
+    ended = [m for m in log if m.name == "TASK_ENDED"][0]
+    started = [m for m in log if m.name == "TASK_STARTED"][0]
+    assert ended.time == 1002.0 + 301.0, "South started at 1002 and ran its 300 s"
+    assert started.time == ended.time + 1.0, "the flag reaches North through the bus next tick"
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "DESIRED_RUDDER") == -20.0
+    assert one(rig.tick(NAV_HEADING=90.0), "DESIRED_RUDDER") < 0
+    log = []
+    for _ in range(125):
+        log += rig.tick(NAV_HEADING=90.0)
+    assert values(log, "TASK_ENDED") == ["North:timeout"]
+    assert one(log, "TASK_STARTED") == "Stop"
+    assert one(log, "MISSION_ENDED") == "Stop"
+    assert values(log, "HELM_RUDDER_OWNER")[-1] == "Stop"
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "DESIRED_THRUST") == 0.0 and one(out, "DESIRED_RUDDER") == 0.0
+
+
+def arbitration_rig(p_a: str, p_b: str) -> Rig:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Name", "A"),
+            ("Heading", "100"),
+            ("Priority", p_a),
+            ("InitialState", "ON"),
+            ("Thrust", "30"),
+        ),
+        spec.task(
+            "ConstantHeading",
+            ("Name", "B"),
+            ("Heading", "80"),
+            ("Priority", p_b),
+            ("InitialState", "ON"),
+            ("Thrust", "70"),
+            ("TimeOut", "NEVER"),
+        ),
+        *safety(spec),
+    ]
+    return Rig(tasks, spec)
+
+
+def test_lower_priority_number_wins() -> None:
+    rig = arbitration_rig("3", "2")
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    assert one(out, "HELM_RUDDER_OWNER") == "B"
+    assert one(out, "DESIRED_RUDDER") < 0 and one(out, "DESIRED_THRUST") == 70.0
+
+
+def test_tie_goes_to_first_task_in_mission_order() -> None:
+    rig = arbitration_rig("2", "2")
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    assert one(out, "HELM_RUDDER_OWNER") == "A"
+    assert one(out, "DESIRED_RUDDER") > 0 and one(out, "DESIRED_THRUST") == 30.0
+
+
+def test_outranked_task_resumes_when_the_winner_ends() -> None:
+    rig = arbitration_rig("3", "2")
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    for _ in range(100):
+        rig.tick(NAV_HEADING=90.0)
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "TASK_ENDED") == "A:timeout"
+    rig.helm.task("B").end("complete", "DONE")
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "DESIRED_RUDDER") == 0.0 and one(out, "HELM_RUDDER_OWNER") == "none"
+
+
+def test_owner_posted_only_on_change() -> None:
+    rig = arbitration_rig("3", "2")
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    out = rig.tick(NAV_HEADING=90.0)
+    assert values(out, "HELM_RUDDER_OWNER") == []
+    assert values(out, "HELM_STATE") == []
+
+
+def test_going_offline_stops_desired_in_the_same_tick() -> None:
+    rig = arbitration_rig("3", "2")
+    assert values(rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0), "DESIRED_RUDDER")
+    out = rig.tick(HELM_ONLINE=0.0, NAV_HEADING=90.0)
+    assert not [m for m in out if m.name.startswith("DESIRED_")]
+    assert one(out, "HELM_STATE") == "OFFLINE"
+    assert one(out, "HELM_RUDDER_OWNER") == "none"
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    assert one(out, "HELM_STATE") == "ONLINE" and one(out, "HELM_RUDDER_OWNER") == "B"
+    assert values(out, "TASK_STARTED") == [], "coming back online does not restart the mission"
+
+
+def test_tasks_do_not_time_out_or_starve_while_offline_but_start_flags_are_heard() -> None:
+    spec, tasks = south_north()
+    rig = Rig(tasks, spec)
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    rig.tick(HELM_ONLINE=0.0)
+    out = rig.tick(MissionStart="go")
+    assert one(out, "TASK_STARTED") == "South", "a start flag is heard offline"
+    log = []
+    for _ in range(30):
+        log += rig.tick()
+    assert values(log, "TASK_ENDED") == [], "no starvation checks while offline"
+    out = rig.tick(HELM_ONLINE=1.0)
+    assert one(out, "TASK_ENDED") == "South:starved"
+    assert "NAV_HEADING" in str(one(out, "South_ERROR"))
+    assert one(out, "GoNorth") == one(out, "South_ERROR")
+
+
+def test_starvation_while_online() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "GoToWayPoint",
+            ("Name", "WP"),
+            ("Location", "0,500"),
+            ("InitialState", "ON"),
+            ("FinishFlag", "Home"),
+            ("Thrust", "80"),
+        ),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec)
+    out = rig.tick(HELM_ONLINE=1.0, NAV_X=0.0, NAV_Y=0.0, NAV_YAW=0.0)
+    assert one(out, "DESIRED_THRUST") == 80.0
+    log = []
+    for _ in range(10):
+        log += rig.tick(NAV_YAW=0.0, NAV_Y=0.0)
+    assert values(log, "TASK_ENDED") == []
+    out = rig.tick(NAV_YAW=0.0, NAV_Y=0.0)
+    assert one(out, "TASK_ENDED") == "WP:starved"
+    assert "NAV_X" in str(one(out, "WP_ERROR"))
+    assert one(out, "Home") == one(out, "WP_ERROR")
+    assert one(out, "DESIRED_THRUST") == 0.0, "a starved task's vote is gone the same tick"
+
+
+def test_waypoint_completion_posts_finish_flag_and_chains() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "GoToWayPoint",
+            ("Name", "WP"),
+            ("Location", "0,10"),
+            ("InitialState", "ON"),
+            ("FinishFlag", "Arrived"),
+            ("Thrust", "80"),
+        ),
+        spec.task(
+            "Timer",
+            ("Name", "Wait"),
+            ("StartFlag", "Arrived"),
+            ("TimeOut", "3"),
+            ("FinishFlag", "EndMission"),
+        ),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec)
+    rig.tick(HELM_ONLINE=1.0, NAV_X=0.0, NAV_Y=0.0, NAV_HEADING=0.0)
+    out = rig.tick(NAV_X=0.0, NAV_Y=6.0, NAV_HEADING=0.0)
+    assert one(out, "TASK_ENDED") == "WP:complete" and one(out, "Arrived") == "DONE"
+    assert one(rig.tick(NAV_X=0.0, NAV_Y=6.0), "TASK_STARTED") == "Wait"
+    log = []
+    for _ in range(4):
+        log += rig.tick()
+    assert values(log, "TASK_ENDED") == ["Wait:complete"]
+    assert values(log, "MISSION_ENDED") == ["Stop"]
+    assert [m.time for m in log if m.name == "TASK_ENDED"] == [1006.0], "Wait ran its 3 s"
+
+
+def test_end_mission_locks_out_everyone() -> None:
+    rig = arbitration_rig("1", "2")
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0)
+    out = rig.tick(EndMission="now", NAV_HEADING=90.0)
+    assert one(out, "MISSION_ENDED") == "Stop"
+    assert one(out, "HELM_RUDDER_OWNER") == "Stop"
+    assert one(out, "DESIRED_RUDDER") == 0.0 and one(out, "DESIRED_THRUST") == 0.0
+    log = []
+    for _ in range(200):
+        log += rig.tick(NAV_HEADING=90.0)
+    assert values(log, "TASK_ENDED") == [], "locked-out tasks are not even run"
+    assert set(values(log, "DESIRED_THRUST")) == {0.0}
+    assert values(log, "MISSION_ENDED") == []
+
+
+def test_overall_timeout_ends_the_mission() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Name", "H"),
+            ("Heading", "0"),
+            ("InitialState", "ON"),
+            ("TimeOut", "NEVER"),
+            ("Thrust", "40"),
+        ),
+        *safety(spec, timeout="20"),
+    ]
+    rig = Rig(tasks, spec)
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
+    log = []
+    for _ in range(22):
+        log += rig.tick(NAV_HEADING=0.0)
+    assert values(log, "TASK_ENDED") == ["Overall:timeout"]
+    assert values(log, "MISSION_ENDED") == ["Stop"]
+    assert values(log, "DESIRED_THRUST")[-1] == 0.0
+    assert 40.0 in values(log, "DESIRED_THRUST")
+
+
+def test_desired_values_are_clamped_to_helm_limits() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Name", "H"),
+            ("Heading", "180"),
+            ("InitialState", "ON"),
+            ("Thrust", "90"),
+        ),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec, ("MAXRUDDER", "15"), ("MAXTHRUST", "60"))
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
+    assert one(out, "DESIRED_RUDDER") == 15.0 and one(out, "DESIRED_THRUST") == 60.0
+
+
+def test_subscriptions_cover_online_flags_and_needs() -> None:
+    spec, tasks = south_north()
+    rig = Rig(tasks, spec)
+    subs = rig.helm.subscriptions()
+    assert {
+        "HELM_ONLINE",
+        "MissionStart",
+        "GoNorth",
+        "EndMission",
+        "NAV_HEADING",
+        "NAV_YAW",
+    } <= subs
+
+
+def test_online_requires_exactly_one() -> None:
+    rig = arbitration_rig("3", "2")
+    out = rig.tick(HELM_ONLINE="1", NAV_HEADING=90.0)
+    assert one(out, "HELM_STATE") == "OFFLINE"
+    assert not values(out, "DESIRED_RUDDER")
+
+
+# ---- refusals -------------------------------------------------------------------------------
+
+
+def _refuse(tasks: list[Block], spec: Spec) -> MissionError:
+    with pytest.raises(MissionError) as err:
+        Helm(Bus(SimClock()), spec.block("ProcessConfig", "pHelm"), tasks)
+    return err.value
+
+
+def test_mission_without_end_mission_is_refused_at_the_helm_block() -> None:
+    spec = Spec()
+    tasks = safety(spec)[:1]
+    err = _refuse(tasks, spec)
+    assert "EndMission" in str(err) and str(err).startswith(f"{FILE}:{spec.line - 3}:")
+
+
+def test_mission_without_overall_timeout_is_refused() -> None:
+    spec = Spec()
+    err = _refuse(safety(spec)[1:], spec)
+    assert "OverallTimeOut" in str(err) and str(err).startswith(f"{FILE}:")
+
+
+def test_unknown_task_type_is_refused_at_its_block() -> None:
+    spec = Spec()
+    bad = spec.task("Orbitt", ("Name", "O"))
+    err = _refuse([bad, *safety(spec)], spec)
+    assert str(err).startswith(f"{FILE}:{bad.line}:") and "ConstantHeading" in str(err)
+
+
+def test_duplicate_task_names_are_refused() -> None:
+    spec = Spec()
+    a = spec.task("Timer", ("Name", "T"), ("InitialState", "ON"))
+    b = spec.task("Timer", ("Name", "T"), ("InitialState", "ON"))
+    err = _refuse([a, b, *safety(spec)], spec)
+    assert str(err).startswith(f"{FILE}:{b.line}:") and f"{FILE}:{a.line}" in str(err)
+
+
+def test_bad_task_parameter_propagates_located_error() -> None:
+    spec = Spec()
+    bad = spec.task("ConstantHeading", ("Name", "H"), ("Heading", "north"), ("InitialState", "ON"))
+    err = _refuse([bad, *safety(spec)], spec)
+    assert str(err).startswith(f"{FILE}:{bad.line + 2}:") and "Heading expects a number" in str(err)
+
+
+def test_from_mission() -> None:
+    spec = Spec()
+    helm_block = spec.block("ProcessConfig", "pHelm", ("YAW_PID_KP", "1.0"))
+    tasks = safety(spec)
+    mission = Mission(FILE, Block("Globals", "", FILE, 1), {"pHelm": helm_block}, tasks)
+    helm = Helm.from_mission(Bus(SimClock()), mission)
+    assert [t.name for t in helm.tasks] == ["Overall", "Stop"]
+    assert helm.gains.yaw_kp == 1.0
+    with pytest.raises(MissionError, match="no ProcessConfig = pHelm"):
+        Helm.from_mission(Bus(SimClock()), Mission(FILE, Block("Globals", "", FILE, 1), {}, tasks))
+
+
+def test_controller_history_is_dropped_after_an_offline_gap() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Name", "H"),
+            ("Heading", "10"),
+            ("InitialState", "ON"),
+            ("TimeOut", "NEVER"),
+        ),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec, ("YAW_PID_KI", "0.1"), ("YAW_PID_INTEGRAL_LIMIT", "5"))
+    rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
+    rig.tick(NAV_HEADING=0.0)
+    assert rig.helm.task("H").yaw_pid.i > 0
+    rig.tick(HELM_ONLINE=0.0, NAV_HEADING=0.0)
+    rig.tick(60.0, NAV_HEADING=0.0)
+    out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
+    assert rig.helm.task("H").yaw_pid.i == 0.0, "no 60 s of integral from the offline gap"
+    assert one(out, "DESIRED_RUDDER") == pytest.approx(5.0)

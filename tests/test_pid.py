@@ -1,0 +1,110 @@
+"""ScalarPID (spec 1.4.1): limits, time-stamp driven dt, smoothed derivative, angle wrap."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.tasks.pid import HelmGains, ScalarPID
+
+
+def test_proportional_only_and_output_limit() -> None:
+    pid = ScalarPID(kp=2.0, kd=0.0, ki=0.0, integral_limit=0.0, output_limit=10.0)
+    assert pid.run(3.0, 0.0) == pytest.approx(6.0)
+    assert pid.run(50.0, 1.0) == 10.0
+    assert pid.run(-50.0, 2.0) == -10.0
+
+
+def test_integral_uses_time_stamps_not_call_count() -> None:
+    a = ScalarPID(kp=0.0, kd=0.0, ki=1.0, integral_limit=100.0, output_limit=100.0)
+    b = ScalarPID(kp=0.0, kd=0.0, ki=1.0, integral_limit=100.0, output_limit=100.0)
+    for t in (0.0, 1.0, 2.0):
+        out_a = a.run(1.0, t)
+    for t in (0.0, 0.1, 0.3, 1.7, 2.0):
+        out_b = b.run(1.0, t)
+    assert out_a == pytest.approx(2.0)
+    assert out_b == pytest.approx(2.0)
+
+
+def test_integral_limit_bounds_the_integral_term() -> None:
+    pid = ScalarPID(kp=0.0, kd=0.0, ki=0.5, integral_limit=2.0, output_limit=100.0)
+    for t in range(100):
+        pid.run(10.0, float(t))
+    assert pid.i == pytest.approx(2.0)
+    pid.run(-10.0, 100.0)
+    assert pid.i < 2.0, "wind-up would keep the integral pinned long after the error reverses"
+
+
+def test_repeated_time_stamp_adds_no_integral_or_derivative() -> None:
+    pid = ScalarPID(kp=1.0, kd=1.0, ki=1.0, integral_limit=100.0, output_limit=100.0)
+    pid.run(0.0, 0.0)
+    pid.run(1.0, 1.0)
+    i, d = pid.i, pid.d
+    pid.run(5.0, 1.0)
+    assert (pid.i, pid.d) == (i, d)
+    assert pid.p == 5.0
+
+
+def test_derivative_is_averaged_over_five_taps() -> None:
+    pid = ScalarPID(kp=0.0, kd=1.0, ki=0.0, integral_limit=0.0, output_limit=1000.0)
+    pid.run(0.0, 0.0)
+    assert pid.run(10.0, 1.0) == pytest.approx(10.0)
+    assert pid.run(10.0, 2.0) == pytest.approx(5.0)
+    for t in (3.0, 4.0, 5.0):
+        pid.run(10.0, t)
+    assert pid.d == pytest.approx(2.0)
+    assert pid.run(10.0, 6.0) == pytest.approx(0.0), "the step leaves the window after 5 taps"
+
+
+def test_derivative_respects_irregular_dt() -> None:
+    pid = ScalarPID(kp=0.0, kd=1.0, ki=0.0, integral_limit=0.0, output_limit=1000.0)
+    pid.run(0.0, 0.0)
+    assert pid.run(1.0, 0.25) == pytest.approx(4.0)
+
+
+def test_angular_error_wraps_across_north() -> None:
+    pid = ScalarPID(kp=1.0, kd=1.0, ki=0.0, integral_limit=0.0, output_limit=1000.0, angular=True)
+    pid.run(179.0, 0.0)
+    out = pid.run(-179.0 + 360.0, 1.0)
+    assert pid.error == pytest.approx(-179.0)
+    assert pid.d == pytest.approx(2.0), "179 → -179 is a 2 degree change, not 358"
+    assert out == pytest.approx(-177.0)
+
+
+def test_reset_forgets_history() -> None:
+    pid = ScalarPID(kp=0.0, kd=1.0, ki=1.0, integral_limit=10.0, output_limit=100.0)
+    pid.run(0.0, 0.0)
+    pid.run(5.0, 1.0)
+    pid.reset()
+    assert pid.run(5.0, 50.0) == 0.0
+
+
+def _helm_block(*pairs: tuple[str, str]) -> Block:
+    entries = [Entry(k, v, "m.moos", 20 + i) for i, (k, v) in enumerate(pairs)]
+    return Block("ProcessConfig", "pHelm", "m.moos", 19, entries)
+
+
+def test_gains_defaults_and_overrides() -> None:
+    g = HelmGains.from_block(
+        _helm_block(("yaw_pid_kp", "0.8"), ("MAXRUDDER", "30"), ("AppTick", "5"))
+    )
+    assert (g.yaw_kp, g.yaw_kd, g.yaw_ki, g.yaw_integral_limit) == (0.8, 0.2, 0.0, 2.0)
+    assert (g.max_rudder, g.max_thrust, g.max_elevator) == (30.0, 100.0, 30.0)
+    pid = g.yaw_pid()
+    assert pid.run(170.0, 0.0) == 30.0
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "expected"),
+    [
+        ("YAW_PID_KQ", "1", "unknown helm gain"),
+        ("YAW_PID_KP", "-1", "must not be negative"),
+        ("MAXRUDDER", "0", "must be positive"),
+        ("MAXTHRUST", "lots", "expects a number"),
+    ],
+)
+def test_bad_gains_are_refused_with_location(key: str, value: str, expected: str) -> None:
+    with pytest.raises(MissionError) as err:
+        HelmGains.from_block(_helm_block(("AppTick", "4"), (key, value)))
+    assert expected in str(err.value)
+    assert str(err.value).startswith("m.moos:21:")

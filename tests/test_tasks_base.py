@@ -1,0 +1,202 @@
+"""The Task base: Table 1 properties, refusals with file:line, completion causes."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.bus import Message
+from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.tasks.base import NavState, State, Task
+from mavhelm.tasks.heading import ConstantHeading
+from mavhelm.tasks.registry import build_task, known_types, task_class
+
+
+def tblock(kind: str, *pairs: tuple[str, str], line: int = 30) -> Block:
+    entries = [Entry(k, v, "south.moos", line + 1 + i) for i, (k, v) in enumerate(pairs)]
+    return Block("Task", kind, "south.moos", line, entries)
+
+
+def heading_task(*pairs: tuple[str, str]) -> ConstantHeading:
+    task = build_task(tblock("ConstantHeading", ("Heading", "180"), *pairs))
+    assert isinstance(task, ConstantHeading)
+    return task
+
+
+def msg(name: str, value: float | str, t: float) -> Message:
+    return Message(name, value, t, "test")
+
+
+def test_table1_properties_are_read() -> None:
+    t = heading_task(
+        ("Name", "South"),
+        ("StartFlag", "MissionStart, Go"),
+        ("FinishFlag", "GoNorth"),
+        ("EventFlag", "E1,E2"),
+        ("TimeOut", "300"),
+        ("InitialState", "off"),
+        ("Priority", "2"),
+        ("LOGPID", "true"),
+    )
+    assert t.name == "South"
+    assert t.start_flags == ["MissionStart", "Go"]
+    assert t.finish_flags == ["GoNorth"]
+    assert t.event_flags == ["E1", "E2"]
+    assert (t.timeout, t.initial_on, t.priority, t.log_pid) == (300.0, False, 2, True)
+
+
+def test_defaults_priority_3_timeout_100() -> None:
+    t = heading_task(("InitialState", "ON"))
+    assert (t.priority, t.timeout, t.name) == (3, 100.0, "ConstantHeading")
+
+
+def test_timeout_never_and_case_insensitive_keys() -> None:
+    t = heading_task(("timeout", "never"), ("INITIALSTATE", "ON"))
+    assert t.timeout is None
+
+
+def test_registry_is_case_insensitive_and_accepts_timeout_alias() -> None:
+    assert task_class("gotowaypoint") is task_class("GoToWayPoint")
+    assert task_class("TimeOut") is task_class("Timer")
+    assert "TimeOut" in known_types() and "EndMission" in known_types()
+
+
+@pytest.mark.parametrize(
+    ("pairs", "line", "expected"),
+    [
+        ((("Heding", "90"),), 32, "unknown parameter 'Heding'"),
+        ((("Priority", "0"),), 32, "Priority must be a whole number >= 1"),
+        ((("Priority", "1.5"),), 32, "Priority must be a whole number"),
+        ((("TimeOut", "soon"),), 32, "TimeOut expects a number"),
+        ((("TimeOut", "-5"),), 32, "TimeOut must be positive"),
+        ((("InitialState", "maybe"),), 32, "InitialState expects ON or OFF"),
+        ((("StartFlag", "A,,B"),), 32, "comma-separated"),
+        ((("LOGPID", "sure"),), 32, "LOGPID expects true or false"),
+        ((("Thrust", "150"),), 32, "percentage"),
+        ((("Name", "Leg 7"),), 32, "Name must be one word"),
+    ],
+)
+def test_bad_parameters_are_refused_at_their_line(
+    pairs: tuple[tuple[str, str], ...], line: int, expected: str
+) -> None:
+    with pytest.raises(MissionError) as err:
+        heading_task(*pairs, ("InitialState", "ON"))
+    assert expected in str(err.value)
+    assert str(err.value).startswith(f"south.moos:{line}:")
+
+
+def test_unknown_parameter_message_lists_known_ones() -> None:
+    with pytest.raises(MissionError, match="known: .*Heading, Thrust"):
+        heading_task(("Speed", "2"))
+
+
+def test_missing_required_parameter_is_located_at_the_block() -> None:
+    with pytest.raises(MissionError) as err:
+        build_task(tblock("ConstantHeading", ("InitialState", "ON"), line=40))
+    assert str(err.value).startswith("south.moos:40:")
+    assert "needs Heading" in str(err.value)
+
+
+def test_off_task_without_start_flag_can_never_run() -> None:
+    with pytest.raises(MissionError, match="can never run"):
+        heading_task(("InitialState", "OFF"))
+
+
+def test_unknown_task_type_lists_the_known_ones() -> None:
+    with pytest.raises(MissionError) as err:
+        build_task(tblock("GoToWaypiont", ("Location", "1,2"), line=50))
+    assert str(err.value).startswith("south.moos:50:")
+    assert "GoToWayPoint" in str(err.value) and "OverallTimeOut" in str(err.value)
+
+
+def test_start_flag_wakes_idle_task_whatever_its_value() -> None:
+    t = heading_task(("StartFlag", "Go"), ("Name", "S"))
+    t.offer(msg("Other", 1.0, 0.0), 0.0)
+    assert t.state is State.IDLE
+    t.offer(msg("Go", "anything", 1.0), 2.0)
+    assert t.state is State.ACTIVE and t.start_time == 2.0
+    assert t.take_notifications() == [("TASK_STARTED", "S")]
+
+
+def test_finished_task_is_not_restarted_by_its_start_flag() -> None:
+    t = heading_task(("StartFlag", "Go"), ("Name", "S"))
+    t.offer(msg("Go", 1.0, 0.0), 0.0)
+    t.end("timeout", "x")
+    t.offer(msg("Go", 1.0, 5.0), 5.0)
+    assert t.state is State.DONE
+
+
+def test_timeout_ends_with_finish_flags_carrying_the_reason() -> None:
+    t = heading_task(("StartFlag", "Go"), ("Name", "S"), ("TimeOut", "10"), ("FinishFlag", "A,B"))
+    nav = NavState()
+    t.start(0.0)
+    t.take_notifications()
+    nav.update(msg("NAV_HEADING", 180.0, 10.0))
+    assert t.step(nav, 10.0) is not None, "at exactly TimeOut the task still runs"
+    assert t.step(nav, 10.5) is None
+    assert t.end_cause == "timeout"
+    out = t.take_notifications()
+    assert out[0] == ("TASK_ENDED", "S:timeout")
+    assert [name for name, _ in out[1:]] == ["A", "B"]
+    assert "timed out after 10 s" in str(out[1][1])
+
+
+def test_starvation_posts_error_and_finish_flags() -> None:
+    t = heading_task(("StartFlag", "Go"), ("Name", "S"), ("FinishFlag", "Next"))
+    nav = NavState()
+    t.start(0.0)
+    nav.update(msg("NAV_HEADING", 180.0, 1.0))
+    assert t.step(nav, 11.0) is not None
+    assert t.step(nav, 11.5) is None
+    assert t.end_cause == "starved"
+    out = dict(t.take_notifications())
+    assert out["TASK_ENDED"] == "S:starved"
+    assert "NAV_HEADING" in str(out["S_ERROR"]) and "\n" not in str(out["S_ERROR"])
+    assert out["Next"] == out["S_ERROR"]
+
+
+def test_never_heard_variable_starves_ten_seconds_after_activation() -> None:
+    t = heading_task(("StartFlag", "Go"), ("Name", "S"))
+    nav = NavState()
+    t.start(100.0)
+    assert t.step(nav, 110.0) is None and t.active, "no data yet: wait, do not vote"
+    t.step(nav, 110.1)
+    assert t.end_cause == "starved"
+
+
+def test_nav_yaw_feeds_heading() -> None:
+    nav = NavState()
+    nav.update(msg("NAV_YAW", -1.5707963267948966, 3.0))
+    assert nav.heading == pytest.approx(90.0)
+    assert nav.time("NAV_HEADING") == 3.0
+
+
+def test_event_posts_event_flags_and_keeps_running() -> None:
+    t = heading_task(("InitialState", "ON"), ("EventFlag", "Ev1,Ev2"))
+    t.start(0.0)
+    t.take_notifications()
+    t.event("too deep")
+    assert t.take_notifications() == [("Ev1", "too deep"), ("Ev2", "too deep")]
+    assert t.active
+
+
+class _Custom(Task):
+    keyword = "Custom"
+
+
+def test_base_hooks_are_inert() -> None:
+    t = _Custom(tblock("Custom", ("InitialState", "ON")))
+    t.start(0.0)
+    assert t.needs() == set()
+    assert t.step(NavState(), 50.0) is None and t.active
+
+
+def test_initially_on_task_ignores_its_start_flag() -> None:
+    t = heading_task(("InitialState", "ON"), ("StartFlag", "Go"))
+    t.offer(msg("Go", 1.0, 0.0), 0.0)
+    assert t.state is State.IDLE, "ON tasks start with the mission, not on a flag"
+
+
+def test_initial_state_defaults_to_on_unless_a_start_flag_is_given() -> None:
+    assert heading_task().initial_on is True
+    assert heading_task(("StartFlag", "Go")).initial_on is False
+    assert heading_task(("StartFlag", "Go"), ("InitialState", "ON")).initial_on is True

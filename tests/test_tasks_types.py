@@ -1,0 +1,178 @@
+"""Each task type's own behaviour and parameters."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.bus import Message
+from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.tasks.base import NavState
+from mavhelm.tasks.end_mission import EndMission
+from mavhelm.tasks.heading import ConstantHeading
+from mavhelm.tasks.overall_timeout import OverallTimeOut
+from mavhelm.tasks.registry import build_task
+from mavhelm.tasks.timer import Timer
+from mavhelm.tasks.waypoint import GoToWayPoint
+
+
+def tblock(kind: str, *pairs: tuple[str, str], line: int = 60) -> Block:
+    entries = [Entry(k, v, "t.moos", line + 1 + i) for i, (k, v) in enumerate(pairs)]
+    return Block("Task", kind, "t.moos", line, entries)
+
+
+def nav_at(t: float, **values: float) -> NavState:
+    nav = NavState()
+    for name, v in values.items():
+        nav.update(Message(f"NAV_{name.upper()}", v, t, "test"))
+    return nav
+
+
+def waypoint(*pairs: tuple[str, str]) -> GoToWayPoint:
+    task = build_task(tblock("GoToWayPoint", ("InitialState", "ON"), *pairs))
+    assert isinstance(task, GoToWayPoint)
+    task.start(0.0)
+    return task
+
+
+def test_waypoint_parameters() -> None:
+    t = waypoint(("Location", "10, -20, 3"), ("Radius", "2"), ("Thrust", "40"))
+    assert t.location == (10.0, -20.0, 3.0)
+    assert (t.radius, t.thrust) == (2.0, 40.0)
+    assert t.needs() == {"NAV_X", "NAV_Y", "NAV_HEADING"}
+    assert waypoint(("Location", "1,2")).radius == 5.0
+
+
+@pytest.mark.parametrize(
+    ("pairs", "expected", "line"),
+    [
+        ((), "needs Location", 60),
+        ((("Location", "1"),), "expects x,y", 62),
+        ((("Location", "1,a"),), "expects x,y", 62),
+        ((("Location", "1,2"), ("Radius", "0")), "Radius must be positive", 63),
+    ],
+)
+def test_waypoint_refusals(pairs: tuple[tuple[str, str], ...], expected: str, line: int) -> None:
+    with pytest.raises(MissionError) as err:
+        waypoint(*pairs)
+    assert expected in str(err.value)
+    assert str(err.value).startswith(f"t.moos:{line}:")
+
+
+def test_waypoint_steers_toward_the_goal_clockwise_positive() -> None:
+    t = waypoint(("Location", "100,0"), ("Thrust", "60"))
+    votes = t.step(nav_at(1.0, x=0.0, y=0.0, heading=0.0), 1.0)
+    assert votes is not None
+    assert votes["RUDDER"] > 0, "goal due east of a north-pointing boat: turn to starboard"
+    assert votes["THRUST"] == 60.0
+    t2 = waypoint(("Location", "-100,0"))
+    votes2 = t2.step(nav_at(1.0, x=0.0, y=0.0, heading=0.0), 1.0)
+    assert votes2 is not None and votes2["RUDDER"] < 0
+    assert "THRUST" not in votes2, "no Thrust given: leave thrust to other tasks"
+
+
+def test_waypoint_bearing_across_north() -> None:
+    t = waypoint(("Location", "-1,100"))
+    votes = t.step(nav_at(1.0, x=0.0, y=0.0, heading=10.0), 1.0)
+    assert votes is not None
+    assert -20.0 <= votes["RUDDER"] < 0, "goal at ~359°, heading 10°: small turn to port"
+
+
+def test_waypoint_completes_inside_radius() -> None:
+    t = waypoint(("Location", "10,10"), ("Radius", "3"), ("FinishFlag", "Arrived"))
+    assert t.step(nav_at(1.0, x=10.0, y=6.0, heading=0.0), 1.0) is not None
+    assert t.active
+    assert t.step(nav_at(2.0, x=10.0, y=8.0, heading=0.0), 2.0) is None
+    assert t.end_cause == "complete"
+    assert ("Arrived", "DONE") in t.take_notifications()
+
+
+def test_constant_heading_holds_heading() -> None:
+    t = build_task(tblock("ConstantHeading", ("Heading", "-90"), ("InitialState", "ON")))
+    assert isinstance(t, ConstantHeading) and t.heading == 270.0
+    t.start(0.0)
+    votes = t.step(nav_at(1.0, heading=0.0), 1.0)
+    assert votes is not None and votes["RUDDER"] < 0
+    votes = t.step(nav_at(2.0, heading=270.0), 2.0)
+    assert votes is not None and votes["RUDDER"] > 0, "derivative of the swing pushes back"
+    assert t.active, "ConstantHeading only ends by time-out"
+
+
+def test_constant_heading_logpid_posts_controller_state() -> None:
+    t = build_task(
+        tblock(
+            "ConstantHeading",
+            ("Heading", "10"),
+            ("InitialState", "ON"),
+            ("Name", "H"),
+            ("LOGPID", "TRUE"),
+        )
+    )
+    t.start(0.0)
+    t.take_notifications()
+    t.step(nav_at(1.0, heading=0.0), 1.0)
+    out = dict(t.take_notifications())
+    assert out["H_YAW_PID"].startswith("e=10.000,")
+
+
+def test_timer_completes_after_its_timeout_without_votes() -> None:
+    for kind in ("Timer", "TimeOut"):
+        t = build_task(tblock(kind, ("InitialState", "ON"), ("TimeOut", "5"), ("FinishFlag", "Go")))
+        assert isinstance(t, Timer)
+        t.start(0.0)
+        assert t.needs() == set()
+        assert t.step(NavState(), 4.9) is None and t.active
+        t.step(NavState(), 7.0)
+        assert t.end_cause == "complete"
+        assert ("Go", "DONE") in t.take_notifications()
+
+
+def test_timer_refuses_never() -> None:
+    with pytest.raises(MissionError, match="never finish"):
+        build_task(tblock("Timer", ("InitialState", "ON"), ("TimeOut", "NEVER")))
+
+
+def test_overall_timeout_is_on_and_never_starves() -> None:
+    t = build_task(tblock("OverallTimeOut", ("TimeOut", "60"), ("FinishFlag", "EndMission")))
+    assert isinstance(t, OverallTimeOut) and t.initial_on
+    t.start(0.0)
+    assert t.step(NavState(), 59.0) is None and t.active
+    t.step(NavState(), 61.0)
+    assert t.end_cause == "timeout"
+
+
+@pytest.mark.parametrize(
+    ("pairs", "expected"),
+    [
+        ((("FinishFlag", "EndMission"),), "needs TimeOut"),
+        ((("TimeOut", "60"),), "needs a FinishFlag"),
+        ((("TimeOut", "NEVER"), ("FinishFlag", "E")), "NEVER would never end"),
+    ],
+)
+def test_overall_timeout_refusals(pairs: tuple[tuple[str, str], ...], expected: str) -> None:
+    with pytest.raises(MissionError, match=expected):
+        build_task(tblock("OverallTimeOut", *pairs))
+
+
+def test_end_mission_votes_everything_at_priority_zero_forever() -> None:
+    t = build_task(
+        tblock("EndMission", ("StartFlag", "EndMission"), ("EndThrust", "-10"), ("EndRudder", "5"))
+    )
+    assert isinstance(t, EndMission)
+    assert (t.priority, t.timeout, t.needs()) == (0, None, set())
+    t.start(0.0)
+    votes = t.step(NavState(), 1e6)
+    assert votes == {"RUDDER": 5.0, "THRUST": -10.0, "ELEVATOR": 0.0}
+    assert t.active
+
+
+@pytest.mark.parametrize(
+    ("pairs", "expected"),
+    [
+        ((("Priority", "2"),), "always has priority 0"),
+        ((("TimeOut", "30"),), "never times out"),
+        ((("EndThrust", "stop"),), "expects a number"),
+    ],
+)
+def test_end_mission_refusals(pairs: tuple[tuple[str, str], ...], expected: str) -> None:
+    with pytest.raises(MissionError, match=expected):
+        build_task(tblock("EndMission", ("StartFlag", "E"), *pairs))
