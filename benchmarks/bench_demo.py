@@ -28,7 +28,7 @@ def main() -> None:
         ended = run.run_mission(max_time=500.0)
         wall = time.perf_counter() - t0
         seconds = run.companion.community.app_seconds
-        helm_nav = [a + b for a, b in zip(seconds["pNav"], seconds["pHelm"])]
+        helm_nav = [a + b for a, b in zip(seconds["pNav"], seconds["pHelm"], strict=True)]
         print("demo mission (examples/demo.moos, real ArduPilot start-up timeline)")
         print(f"  mission reached EndMission: {ended}")
         print(f"  helm+nav tick        {percentiles_us(helm_nav)}")

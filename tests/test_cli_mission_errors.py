@@ -47,13 +47,13 @@ def mission(helm_body: str) -> str:
 
 
 CASES = {
-    "unclosed brace": (mission(GOOD_TASKS).rstrip().rstrip("}"), 7, "never closed"),
-    "unknown task type": (mission(GOOD_TASKS.replace("GoToWayPoint", "GoToWayPiont")), 10,
+    "unclosed brace": (mission(GOOD_TASKS).rstrip().rstrip("}"), 9, "never closed"),
+    "unknown task type": (mission(GOOD_TASKS.replace("GoToWayPoint", "GoToWayPiont")), 12,
                           "GoToWayPiont"),
-    "missing required parameter": (mission(GOOD_TASKS.replace("Location = 10, 20", "")), 10,
+    "missing required parameter": (mission(GOOD_TASKS.replace("Location = 10, 20", "")), 12,
                                    "Location"),
-    "bad number": (mission(GOOD_TASKS.replace("Radius = 5", "Radius = five")), 14, "Radius"),
-    "no EndMission": (mission(GOOD_TASKS.split("    Task = EndMission")[0]), 7, "EndMission"),
+    "bad number": (mission(GOOD_TASKS.replace("Radius = 5", "Radius = five")), 16, "Radius"),
+    "no EndMission": (mission(GOOD_TASKS.split("    Task = EndMission")[0]), 9, "EndMission"),
 }
 
 

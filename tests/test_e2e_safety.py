@@ -83,18 +83,38 @@ def test_gps_loss_with_no_other_source_starves_the_motion_task():
                    if m.time >= ended[0].time)
 
 
+def nav_sources(run: SimulatedRun) -> list[tuple[float, str]]:
+    """NAV_X's source changes after the first fix (pNav announces NONE before any data)."""
+    sources = [(m.time, m.string) for m in run.values("NAV_X_SOURCE")]
+    first_fix = next(i for i, (_, name) in enumerate(sources) if name != "NONE")
+    return sources[first_fix:]
+
+
 def test_gps_loss_falls_back_to_the_autopilot_estimate_and_pops_back():
-    with start("GPS @ 2.0, AP @ 2.0", "seed = 2\ngps_outage from 40 to 70\n") as run:
+    with start("GPS @ 2.0, AP @ 2.0", "seed = 2\ngps_outage from 40 to 48\n") as run:
         run.hand_over()
-        run.run_until(lambda n: n >= 90.0, 120.0)
-        sources = [(round(m.time, 1), m.string) for m in run.values("NAV_X_SOURCE")]
-        names = [s for _, s in sources]
-        assert names[:3] == ["GPS", "AP", "GPS"], sources
+        run.run_until(lambda n: n >= 70.0, 120.0)
+        sources = nav_sources(run)
+        assert [name for _, name in sources] == ["GPS", "AP", "GPS"], sources
         fell_back, popped = sources[1][0], sources[2][0]
-        assert 41.5 <= fell_back <= 42.5
-        assert 70.0 <= popped <= 71.5
+        last_gps = max(m.time for m in run.values("NAV_X") if m.time < 40.5)
+        assert last_gps + 2.0 <= fell_back <= last_gps + 2.0 + 0.25
+        assert 48.0 <= popped <= 49.5
         assert not [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway")]
-        assert actuation_between(run, 45.0, 65.0), "the helm should keep driving on the fallback"
+        assert actuation_between(run, 42.0, 48.0), "the helm should keep driving on the fallback"
+
+
+def test_long_gps_loss_exhausts_the_fallback_and_starves():
+    """The autopilot's EKF dead-reckons only for a while; then no source is left at all."""
+    with start("GPS @ 2.0, AP @ 2.0", "seed = 4\ngps_outage from 40 to 400\n") as run:
+        run.hand_over()
+        assert run.run_until(lambda _n: run.mission_ended(), 120.0)
+        sources = nav_sources(run)
+        assert [name for _, name in sources] == ["GPS", "AP", "NONE"], sources
+        none_at = sources[2][0]
+        ended = [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway:")]
+        assert ended[0].string == "FarAway:starved"
+        assert none_at + 7.5 <= ended[0].time <= none_at + 8.5 + 0.25
 
 
 def test_link_loss_puts_the_helm_offline_and_it_reengages_only_in_guided():

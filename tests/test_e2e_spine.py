@@ -65,14 +65,19 @@ def test_demo_heading_settles_within_5_degrees(demo_run, name, goal):
 
 
 def test_demo_reaches_waypoint_inside_radius(demo_run):
+    """The task judges arrival on NAV_X/NAV_Y (GPS here); ground truth may differ by GPS error."""
     run, _ = demo_run
     start, end, cause = task_window(run, "Home")
     assert cause == "complete"
+    nav_x = [m for m in run.values("NAV_X") if m.time <= end][-1].double
+    nav_y = [m for m in run.values("NAV_Y") if m.time <= end][-1].double
+    assert math.hypot(nav_x - 60.0, nav_y - 0.0) <= 5.0
     at_end = min(run.track, key=lambda s: abs(s.t - end))
+    gps_error_allowance = 1.5
     distance = math.hypot(at_end.x - 60.0, at_end.y - 0.0)
-    assert distance <= 5.0 + 1.0, f"{distance:.1f} m from the waypoint when Home completed"
-    closest = min(math.hypot(s.x - 60.0, s.y) for s in run.track if start <= s.t <= end)
-    assert closest <= 5.0
+    assert distance <= 5.0 + gps_error_allowance, f"truth {distance:.1f} m from the waypoint"
+    before = [s for s in run.track if start <= s.t <= start + 5.0]
+    assert math.hypot(before[0].x - 60.0, before[0].y) > 50.0, "Home should start far away"
 
 
 def test_demo_end_mission_stops_the_boat(demo_run):
@@ -114,12 +119,16 @@ def test_mode_change_mid_mission_stops_actuation_within_one_tick():
         assert run.values("DESIRED_RUDDER")
         # the operator takes back control (the spec's space bar)
         _stays_in_manual(run)
+        asked_at = run.clock.now()
         run.gcs.set_mode("MANUAL")
-        seen = run.run_until(lambda _n: any(m.string == "MANUAL" for m in run.values("AP_MODE")),
-                             3.0)
-        assert seen
-        manual_at = [m.time for m in run.values("AP_MODE") if m.string == "MANUAL"][0]
-        offline = [m for m in run.values("HELM_ONLINE") if m.double == 0.0]
+
+        def manual_seen() -> list[float]:
+            return [m.time for m in run.values("AP_MODE")
+                    if m.string == "MANUAL" and m.time > asked_at]
+
+        assert run.run_until(lambda _n: bool(manual_seen()), 3.0)
+        manual_at = manual_seen()[0]
+        offline = [m for m in run.values("HELM_ONLINE") if m.double == 0.0 and m.time > asked_at]
         assert offline and offline[0].time == manual_at
         sent_before = run.companion_link.received.get("SET_ATTITUDE_TARGET", 0)
         run.run_for(10.0)

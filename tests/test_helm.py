@@ -7,7 +7,9 @@ import pytest
 from mavhelm.companion.bus import Bus, Message
 from mavhelm.companion.clock import SimClock
 from mavhelm.companion.mission import Block, Entry, Mission, MissionError
+from mavhelm.tasks.base import NavState, Task, Votes
 from mavhelm.tasks.helm import Helm
+from mavhelm.tasks.registry import TASK_TYPES
 
 FILE = "helm.moos"
 
@@ -134,7 +136,10 @@ def test_south_north_flag_chaining() -> None:
     ended = [m for m in log if m.name == "TASK_ENDED"][0]
     started = [m for m in log if m.name == "TASK_STARTED"][0]
     assert ended.time == 1002.0 + 301.0, "South started at 1002 and ran its 300 s"
-    assert started.time == ended.time + 1.0, "the flag reaches North through the bus next tick"
+    assert started.time == ended.time, "North takes over in the tick South ends"
+    handover = [m for m in log if m.time == ended.time]
+    assert one(handover, "DESIRED_RUDDER") == -20.0 and one(handover, "DESIRED_THRUST") == 50.0
+    assert one(handover, "HELM_RUDDER_OWNER") == "North", "no tick with nobody at the helm"
     out = rig.tick(NAV_HEADING=90.0)
     assert one(out, "DESIRED_RUDDER") == -20.0
     assert one(rig.tick(NAV_HEADING=90.0), "DESIRED_RUDDER") < 0
@@ -232,9 +237,12 @@ def test_tasks_do_not_time_out_or_starve_while_offline_but_start_flags_are_heard
         log += rig.tick()
     assert values(log, "TASK_ENDED") == [], "no starvation checks while offline"
     out = rig.tick(HELM_ONLINE=1.0)
-    assert one(out, "TASK_ENDED") == "South:starved"
+    assert values(out, "TASK_ENDED") == ["South:starved", "North:starved"], (
+        "North, woken by South's FinishFlag, finds the heading already stale"
+    )
     assert "NAV_HEADING" in str(one(out, "South_ERROR"))
     assert one(out, "GoNorth") == one(out, "South_ERROR")
+    assert one(out, "MISSION_ENDED") == "Stop"
 
 
 def test_starvation_while_online() -> None:
@@ -288,13 +296,13 @@ def test_waypoint_completion_posts_finish_flag_and_chains() -> None:
     rig.tick(HELM_ONLINE=1.0, NAV_X=0.0, NAV_Y=0.0, NAV_HEADING=0.0)
     out = rig.tick(NAV_X=0.0, NAV_Y=6.0, NAV_HEADING=0.0)
     assert one(out, "TASK_ENDED") == "WP:complete" and one(out, "Arrived") == "DONE"
-    assert one(rig.tick(NAV_X=0.0, NAV_Y=6.0), "TASK_STARTED") == "Wait"
+    assert one(out, "TASK_STARTED") == "Wait"
     log = []
     for _ in range(4):
         log += rig.tick()
-    assert values(log, "TASK_ENDED") == ["Wait:complete"]
+    assert values(log, "TASK_ENDED") == ["Wait:timeout"]
     assert values(log, "MISSION_ENDED") == ["Stop"]
-    assert [m.time for m in log if m.name == "TASK_ENDED"] == [1006.0], "Wait ran its 3 s"
+    assert [m.time for m in log if m.name == "TASK_ENDED"] == [1006.0], "Wait ran over its 3 s"
 
 
 def test_end_mission_locks_out_everyone() -> None:
@@ -451,3 +459,56 @@ def test_controller_history_is_dropped_after_an_offline_gap() -> None:
     out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
     assert rig.helm.task("H").yaw_pid.i == 0.0, "no 60 s of integral from the offline gap"
     assert one(out, "DESIRED_RUDDER") == pytest.approx(5.0)
+
+
+def test_end_mission_started_mid_tick_overrides_votes_already_cast() -> None:
+    spec = Spec()
+    tasks = [
+        spec.task(
+            "ConstantHeading",
+            ("Name", "H"),
+            ("Heading", "90"),
+            ("Priority", "1"),
+            ("Thrust", "70"),
+            ("TimeOut", "NEVER"),
+        ),
+        spec.task("Timer", ("Name", "T"), ("TimeOut", "2"), ("FinishFlag", "EndMission")),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec)
+    assert one(rig.tick(HELM_ONLINE=1.0, NAV_HEADING=90.0), "DESIRED_THRUST") == 70.0
+    rig.tick(NAV_HEADING=90.0)
+    assert one(rig.tick(NAV_HEADING=90.0), "DESIRED_THRUST") == 70.0
+    out = rig.tick(NAV_HEADING=90.0)
+    assert one(out, "TASK_ENDED") == "T:timeout" and one(out, "MISSION_ENDED") == "Stop"
+    assert one(out, "DESIRED_THRUST") == 0.0, "H voted before EndMission woke: its vote is void"
+    assert one(out, "HELM_RUDDER_OWNER") == "Stop"
+
+
+class _Pump(Task):
+    """An auxiliary-actuator task, registered only for these tests."""
+
+    keyword = "Pump"
+
+    def update(self, nav: NavState, now: float) -> Votes | None:
+        return {"PUMP": 250.0}
+
+
+def test_auxiliary_actuator_is_posted_and_zeroed_by_end_mission(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setitem(TASK_TYPES, "pump", _Pump)
+    spec = Spec()
+    tasks = [
+        spec.task("Pump", ("Name", "P"), ("TimeOut", "NEVER")),
+        spec.task("Timer", ("Name", "T"), ("TimeOut", "1"), ("FinishFlag", "EndMission")),
+        *safety(spec),
+    ]
+    rig = Rig(tasks, spec)
+    out = rig.tick(HELM_ONLINE=1.0)
+    assert one(out, "DESIRED_PUMP") == 250.0, "auxiliary actuators are not clamped"
+    rig.tick()
+    out = rig.tick()
+    assert one(out, "MISSION_ENDED") == "Stop"
+    assert one(out, "DESIRED_PUMP") == 0.0, "EndMission locks the pump out in the same tick"
+    assert one(rig.tick(), "DESIRED_PUMP") == 0.0

@@ -114,16 +114,17 @@ def test_constant_heading_logpid_posts_controller_state() -> None:
     assert out["H_YAW_PID"].startswith("e=10.000,")
 
 
-def test_timer_completes_after_its_timeout_without_votes() -> None:
+def test_timer_ends_by_its_timeout_without_votes() -> None:
     for kind in ("Timer", "TimeOut"):
-        t = build_task(tblock(kind, ("InitialState", "ON"), ("TimeOut", "5"), ("FinishFlag", "Go")))
-        assert isinstance(t, Timer)
+        t = build_task(tblock(kind, ("TimeOut", "5"), ("FinishFlag", "Go")))
+        assert isinstance(t, Timer) and t.initial_on
         t.start(0.0)
         assert t.needs() == set()
-        assert t.step(NavState(), 4.9) is None and t.active
-        t.step(NavState(), 7.0)
-        assert t.end_cause == "complete"
-        assert ("Go", "DONE") in t.take_notifications()
+        assert t.step(NavState(), 5.0) is None and t.active
+        t.step(NavState(), 5.1)
+        assert t.end_cause == "timeout"
+        out = dict(t.take_notifications())
+        assert "timed out after 5 s" in str(out["Go"])
 
 
 def test_timer_refuses_never() -> None:

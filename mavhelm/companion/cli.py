@@ -39,17 +39,17 @@ def _sim(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from mavhelm.demo import run_demo
+    from mavhelm.demo import DEFAULT_MISSION, run_demo
     from mavhelm.sitl.faults import Scenario
 
     scenario = Scenario.from_file(args.scenario) if args.scenario else None
-    result = run_demo(args.mission, args.out, vehicle=args.vehicle, variant=args.variant,
-                      fast_start=args.fast_start, scenario=scenario, seed=args.seed)
+    result = run_demo(args.mission or DEFAULT_MISSION, args.out, vehicle=args.vehicle,
+                      variant=args.variant, fast_start=args.fast_start, scenario=scenario,
+                      seed=args.seed)
     return 0 if result.ended else 1
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from mavhelm.demo import DEFAULT_MISSION
     from mavhelm.sitl import runner
 
     parser = argparse.ArgumentParser(prog="mavhelm", description=__doc__)
@@ -67,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.set_defaults(func=_sim)
 
     demo = sub.add_parser("demo", help="run a mission end to end in the built-in simulator")
-    demo.add_argument("mission", nargs="?", default=str(DEFAULT_MISSION),
+    demo.add_argument("mission", nargs="?", default=None,
                       help="mission file (default examples/demo.moos)")
     demo.add_argument("--out", default="runs", help="output folder (default runs/)")
     demo.add_argument("--vehicle", default="boat", choices=["boat", "rover"])

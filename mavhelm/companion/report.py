@@ -56,7 +56,8 @@ def summarize(messages: Sequence[Message], track: Sequence[Truth],
             summary.ended_at, summary.end_task = m.time, m.string
         elif m.name.endswith("_ERROR"):
             summary.errors.append(f"{m.time:8.1f}  {m.name} = {m.string}")
-    summary.distance = sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(track, track[1:]))
+    summary.distance = sum(math.hypot(b.x - a.x, b.y - a.y)
+                           for a, b in zip(track, track[1:], strict=False))
     summary.sim_time = track[-1].t - track[0].t if len(track) > 1 else 0.0
     return summary
 

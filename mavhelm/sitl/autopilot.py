@@ -39,6 +39,8 @@ MODE_FLAG_ARMED = 128
 # SERVOn_FUNCTION values.
 FN_NONE, FN_STEERING, FN_THROTTLE, FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT = 0, 26, 70, 73, 74
 
+_MOTOR_FUNCTIONS = (FN_STEERING, FN_THROTTLE, FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT)
+
 # SET_ATTITUDE_TARGET / SET_POSITION_TARGET_* type_mask bits.
 ATT_YAW_RATE_IGNORE = 0x04
 ATT_THROTTLE_IGNORE = 0x40
@@ -196,6 +198,7 @@ class Autopilot:
         self.steering = 0.0  # -1..1 (ArduPilot -4500..4500)
         self.throttle = 0.0  # -1..1 (ArduPilot -100..100)
         self.servo_override: dict[int, int] = {}  # DO_SET_SERVO outputs (1-based)
+        self._servo_map: list[tuple[int, int, float, float, float, bool]] | None = None
         # failsafe
         self.gcs_last_seen: float | None = None
         self.failsafe_bits = 0
@@ -329,11 +332,11 @@ class Autopilot:
             self._text(SEVERITY_CRITICAL, "Arm: Accels inconsistent")
             return RESULT_FAILED
         if not force and self.params.get("ARMING_CHECK", 1) != 0:
-            if not self.gps_has_fix:
-                self._text(SEVERITY_CRITICAL, "Arm: GPS 1: Bad fix")
-                return RESULT_FAILED
-            if self.mode in _NEEDS_POSITION and not self.position_ok():
-                self._text(SEVERITY_CRITICAL, "Arm: Mode requires position")
+            # AP_Arming_Rover::gps_checks only matter in modes that need position/velocity:
+            # a Rover arms in MANUAL with no GPS at all.
+            needs = self.mode in _NEEDS_POSITION or self.mode in _NEEDS_VELOCITY
+            if needs and not self.position_ok():
+                self._text(SEVERITY_CRITICAL, "Arm: Need Position Estimate")
                 return RESULT_FAILED
         self.armed = True
         self._text(SEVERITY_INFO, "Throttle armed")
@@ -508,15 +511,6 @@ class Autopilot:
         self.servo_override[channel] = int(pwm)
         return RESULT_ACCEPTED
 
-    def _pwm(self, ch: int, value: float) -> int:
-        lo = self.params.get(f"SERVO{ch}_MIN", 1100)
-        hi = self.params.get(f"SERVO{ch}_MAX", 1900)
-        trim = self.params.get(f"SERVO{ch}_TRIM", 1500)
-        if self.params.get(f"SERVO{ch}_REVERSED", 0):
-            value = -value
-        pwm = trim + value * (hi - trim if value >= 0 else trim - lo)
-        return int(round(pwm))
-
     def mix(self) -> tuple[float, float, float, float]:
         """(steering, throttle, left, right) after skid-steer mixing; zero when disarmed."""
         if not self.armed:
@@ -527,24 +521,34 @@ class Autopilot:
             thr = math.copysign(max(0.0, 1.0 - abs(steer)), thr)
         return steer, thr, _clamp(thr + steer, -1, 1), _clamp(thr - steer, -1, 1)
 
+    def servo_map(self) -> list[tuple[int, int, float, float, float, bool]]:
+        """(channel, function, min, max, trim, reversed) of the motor outputs; cached until
+        a SERVOn_ parameter changes (call invalidate())."""
+        if self._servo_map is None:
+            p = self.params
+            self._servo_map = [
+                (ch, int(p.get(f"SERVO{ch}_FUNCTION", 0)), p.get(f"SERVO{ch}_MIN", 1100),
+                 p.get(f"SERVO{ch}_MAX", 1900), p.get(f"SERVO{ch}_TRIM", 1500),
+                 bool(p.get(f"SERVO{ch}_REVERSED", 0)))
+                for ch in range(1, 17)
+                if int(p.get(f"SERVO{ch}_FUNCTION", 0)) in _MOTOR_FUNCTIONS]
+        return self._servo_map
+
+    def invalidate(self) -> None:
+        """Parameters changed: drop cached derived values."""
+        self._servo_map = None
+
     def servo_outputs(self) -> list[int]:
         """SERVO_OUTPUT_RAW values for outputs 1..16."""
         steer, thr, left, right = self.mix()
-        out = []
-        for ch in range(1, 17):
-            fn = int(self.params.get(f"SERVO{ch}_FUNCTION", 0))
-            if fn == FN_STEERING:
-                out.append(self._pwm(ch, steer))
-            elif fn == FN_THROTTLE:
-                out.append(self._pwm(ch, thr))
-            elif fn == FN_THROTTLE_LEFT:
-                out.append(self._pwm(ch, left))
-            elif fn == FN_THROTTLE_RIGHT:
-                out.append(self._pwm(ch, right))
-            elif ch in self.servo_override:
-                out.append(self.servo_override[ch])
-            else:
-                out.append(0)
+        value = {FN_STEERING: steer, FN_THROTTLE: thr, FN_THROTTLE_LEFT: left,
+                 FN_THROTTLE_RIGHT: right}
+        out = [0] * 16
+        for ch, pwm in self.servo_override.items():
+            out[ch - 1] = pwm
+        for ch, fn, lo, hi, trim, rev in self.servo_map():
+            v = -value[fn] if rev else value[fn]
+            out[ch - 1] = int(round(trim + v * (hi - trim if v >= 0 else trim - lo)))
         return out
 
     # ------------------------------------------------------------------ GCS failsafe
@@ -557,8 +561,6 @@ class Autopilot:
             on = False
         else:
             on = now - self.gcs_last_seen > self.params.get("FS_GCS_TIMEOUT", 5.0)
-        if not self.armed and not self.failsafe_triggered:
-            on = False
         old = self.failsafe_bits
         self.failsafe_bits = 1 if on else 0
         if old == 0 and self.failsafe_bits:
@@ -576,8 +578,15 @@ class Autopilot:
             if self.mode == AUTO and int(self.params["FS_GCS_ENABLE"]) == 2:
                 self._text(SEVERITY_WARNING, "Failsafe - Continuing Auto Mode")
                 return
+            # FS_ACTION: 0 nothing, 1 RTL, 2 Hold, 3 SmartRTL or RTL, 4 SmartRTL or Hold,
+            # 5 terminate (disarm), 6 Loiter or Hold; each falls back to Hold
             action = int(self.params.get("FS_ACTION", 2))
             if action == 0:
+                return
+            if action == 5:
+                self.arm(False, now)
+                return
+            if action == 6 and self.set_mode(LOITER, now):
                 return
             if action in (3, 4) and self.set_mode(SMART_RTL, now):
                 return

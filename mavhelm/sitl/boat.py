@@ -13,7 +13,8 @@ the ground truth the sensors observe. Water current carries the hull; wind adds 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import lru_cache
 
 from mavhelm.sitl.truth import Truth
 
@@ -27,15 +28,15 @@ class BoatParams:
     inertia: float = 4.0  # kg m², including added inertia
     thrust_fwd: float = 55.2  # N per thruster at full forward
     thrust_rev: float = 27.6  # N per thruster at full reverse (magnitude)
-    drag_fwd: float = 2 * 55.2 / 3.2**2  # N/(m/s)² → 3.2 m/s top speed
-    drag_rev: float = 2 * 27.6 / 2.3**2  # N/(m/s)² → 2.3 m/s top reverse speed
     drag_lin: float = 2.0  # N/(m/s), keeps low-speed decay finite
+    drag_fwd: float = (2 * 55.2 - 2.0 * 3.2) / 3.2**2  # N/(m/s)² → 3.2 m/s top speed
+    drag_rev: float = (2 * 27.6 - 2.0 * 2.3) / 2.3**2  # N/(m/s)² → 2.3 m/s top reverse
     sway_drag: float = 60.0  # N/(m/s)², sway is strongly damped by the hulls
     sway_lin: float = 20.0
     thruster_sep: float = 0.6  # m between thruster axes (skid)
     yaw_drag: float = 20.0  # N m/(rad/s)² → ~1 rad/s at full differential
     yaw_lin: float = 4.0  # N m/(rad/s)
-    rudder_gain: float = 8.0  # N m per (m/s)² of flow per unit rudder
+    rudder_gain: float = 1.5  # N m per (m/s)² of flow per unit rudder
     rudder_wash: float = 0.35  # fraction of thrust wash over the rudder (steer at rest)
     leeway: float = 0.03  # drift speed as a fraction of wind speed
 
@@ -62,9 +63,14 @@ class Environment:
 
     def drift(self, leeway: float) -> tuple[float, float]:
         """Earth-frame (east, north) velocity added to the hull by current and wind."""
-        to = math.radians(self.wind_from + 180.0)
-        w = leeway * self.wind_speed
-        return (self.current_east + w * math.sin(to), self.current_north + w * math.cos(to))
+        return _drift(self, leeway)
+
+
+@lru_cache(maxsize=64)
+def _drift(env: Environment, leeway: float) -> tuple[float, float]:
+    to = math.radians(env.wind_from + 180.0)
+    w = leeway * env.wind_speed
+    return (env.current_east + w * math.sin(to), env.current_north + w * math.cos(to))
 
 
 def thruster_force(cmd: float, p: BoatParams) -> float:
@@ -104,8 +110,7 @@ def step(state: BoatState, inputs: tuple[float, float], env: Environment, dt: fl
     ce, cn = env.drift(p.leeway)
     ve = u2 * s + v2 * c + ce
     vn = u2 * c - v2 * s + cn
-    return replace(state, x=state.x + ve * dt, y=state.y + vn * dt,
-                   heading=h % (2 * math.pi), u=u2, v=v2, r=r2)
+    return BoatState(state.x + ve * dt, state.y + vn * dt, h % (2 * math.pi), u2, v2, r2)
 
 
 def truth(state: BoatState, t: float, env: Environment, p: BoatParams = BoatParams()) -> Truth:

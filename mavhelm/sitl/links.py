@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import socket
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -37,13 +38,15 @@ class Link:
     """One connection: a TCP client accepted on a server port, or a UDP output."""
 
     def __init__(self, sock: socket.socket, peer: tuple[str, int], index: int, kind: str,
-                 srcSystem: int = 1, srcComponent: int = 1, scenario: Any = None) -> None:
+                 srcSystem: int = 1, srcComponent: int = 1, scenario: Any = None,
+                 serial: int = 0) -> None:
         self.sock = sock
         self.peer = peer
         self.index = index  # position in the simulator's port list (UDP outs follow the ports)
         self.kind = kind  # "tcp" or "udp"
         self.bytes_sent = 0
         self.bytes_received = 0
+        self.received: Counter[str] = Counter()  # message types decoded from this peer
         self.closed = False
         self._capture = _Capture()
         self.mav = mavlink.MAVLink(self._capture, srcSystem=srcSystem, srcComponent=srcComponent)
@@ -53,13 +56,35 @@ class Link:
         self._dgrams: list[bytes] = []  # UDP datagrams not yet sent
         self._held: list[bytes] = []  # packets held by a link_stall
         self._reorder: bytes | None = None  # packet waiting to be swapped with the next
-        # stream scheduling: msgid → interval (s); next due time
+        # stream scheduling: msgid → interval (s); next due time; emission order
         self.intervals: dict[int, float] = {}
         self.next_due: dict[int, float] = {}
-        self.systems_seen: set[int] = set()
+        self.order: dict[int, int] = {}
+        self.next_any = 0.0  # earliest next_due of any scheduled message
+        self._schedule: list[int] | None = None
+        self.systems_seen: set[tuple[int, int]] = set()  # (sysid, compid) heard here
         self.scenario = scenario
-        self._rng = scenario.rng(f"link{index}") if scenario is not None else None
+        # one random stream per connection: port index and how many came before on that port
+        self._rng = scenario.rng(f"link{index}/{serial}") if scenario is not None else None
         self._active: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ streams
+    def set_interval(self, msgid: int, interval: float, first_due: float) -> None:
+        """Stream msgid every interval seconds (0 stops it), first at first_due."""
+        self.intervals[msgid] = max(0.0, interval)
+        if interval > 0:
+            self.next_due[msgid] = first_due
+            self.next_any = min(self.next_any, first_due)
+        else:
+            self.next_due.pop(msgid, None)
+        self._schedule = None
+
+    def schedule(self) -> list[int]:
+        """Message ids currently streamed, in emission order."""
+        if self._schedule is None:
+            self._schedule = sorted((m for m, iv in self.intervals.items() if iv > 0),
+                                    key=lambda m: (self.order.get(m, 1000), m))
+        return self._schedule
 
     # ------------------------------------------------------------------ faults
     def update_faults(self, now: float) -> None:
@@ -198,7 +223,9 @@ class Link:
             except Exception:  # noqa: BLE001 - a corrupt stream must never stop the simulator
                 got = None
             if got:
-                msgs.extend(m for m in got if m.get_type() != "BAD_DATA")
+                good = [m for m in got if m.get_type() != "BAD_DATA"]
+                self.received.update(m.get_type() for m in good)
+                msgs.extend(good)
         return msgs
 
     def close(self) -> None:
@@ -222,6 +249,7 @@ class LinkHub:
         self._src = (srcSystem, srcComponent)
         self.scenario = scenario
         self.new_links: list[Link] = []
+        self._accepted: dict[int, int] = {}
         for port in ports:
             s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -253,7 +281,9 @@ class LinkHub:
                     break
                 c.setblocking(False)
                 c.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                self._add(Link(c, peer, i, "tcp", *self._src, scenario=self.scenario))
+                n = self._accepted.get(i, 0)
+                self._accepted[i] = n + 1
+                self._add(Link(c, peer, i, "tcp", *self._src, scenario=self.scenario, serial=n))
 
     def prune(self) -> None:
         self.links = [lk for lk in self.links if not lk.closed]

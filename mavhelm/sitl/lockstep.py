@@ -73,27 +73,27 @@ class Lockstep:
                 raise LockstepError(f"lockstep stalled waiting for {what}")
             select.select([sock], [], [], 0.001)
 
-    def deliver_to_peers(self) -> None:
-        for peer in self.peers:
-            link, conn = peer.link, peer.conn
-            self._wait(
-                lambda: conn.mav.total_bytes_received + pending_bytes(conn.port) >= link.bytes_sent,
-                conn.port, "a peer to receive the simulator's bytes")
+    def _deliver_to_peer(self, peer: Peer) -> None:
+        link, conn = peer.link, peer.conn
+        self._wait(
+            lambda: conn.mav.total_bytes_received + pending_bytes(conn.port) >= link.bytes_sent,
+            conn.port, "a peer to receive the simulator's bytes")
 
-    def deliver_to_sim(self) -> None:
-        for peer in self.peers:
-            link, conn = peer.link, peer.conn
-            self._wait(
-                lambda: link.bytes_received + pending_bytes(link.sock) >= conn.mav.total_bytes_sent,
-                link.sock, "the simulator to receive a peer's bytes")
+    def _deliver_to_sim(self, peer: Peer) -> None:
+        link, conn = peer.link, peer.conn
+        self._wait(
+            lambda: link.bytes_received + pending_bytes(link.sock) >= conn.mav.total_bytes_sent,
+            link.sock, "the simulator to receive a peer's bytes")
 
     def step(self) -> float:
         now = self.clock.advance(self.dt)
         self.sim.step(now)
-        self.deliver_to_peers()
+        for peer in self.peers:
+            self._deliver_to_peer(peer)
         for peer in self.peers:
             peer.tick(now)
-        self.deliver_to_sim()
+        for peer in self.peers:
+            self._deliver_to_sim(peer)
         return now
 
     def run_until(self, done: Callable[[float], bool], max_time: float) -> bool:

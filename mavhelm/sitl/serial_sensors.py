@@ -135,7 +135,8 @@ class NmeaGps(_Periodic):
             if self._wander is None:
                 wx, wy = self.wander_m * n[0], self.wander_m * n[1]
             else:
-                a = math.exp(-(ts - (self._last_ts or ts)) / self.wander_tau_s)
+                last = self._last_ts if self._last_ts is not None else ts
+                a = math.exp(-(ts - last) / self.wander_tau_s)
                 k = self.wander_m * math.sqrt(max(0.0, 1.0 - a * a))
                 wx, wy = a * self._wander[0] + k * n[0], a * self._wander[1] + k * n[1]
             self._wander, self._last_ts = (wx, wy), ts
@@ -430,8 +431,10 @@ class SensorPort:
         eol: str = "\r\n",
         keep_output: bool = True,
     ) -> None:
+        if name is not None:
+            sensor.name = name  # one name for noise stream, fault selectors and port
         self.sensor = sensor
-        self.name = name or sensor.name
+        self.name = sensor.name
         self.scenario = scenario if scenario is not None else Scenario()
         self.eol = eol
         self._rng = self.scenario.rng(self.name)
@@ -449,8 +452,10 @@ class SensorPort:
         data = line.encode("ascii")
         r = self._line_rng
         trunc = max((f.num("prob") for f in self._faults("serial_truncate", now)), default=0.0)
-        if trunc > 0 and r.random() < trunc and len(data) > 2:
-            data = data[: int(r.integers(1, len(data) - 1))]  # never reaches the checksum
+        if trunc > 0 and r.random() < trunc:
+            star = data.rfind(b"*")
+            end = star if star > 1 else len(data)
+            data = data[: int(r.integers(1, max(2, end)))]  # cut before the checksum
             self.stats["truncated"] += 1
         garbage = max((f.num("prob") for f in self._faults("serial_garbage", now)), default=0.0)
         if garbage > 0 and r.random() < garbage:
@@ -578,14 +583,46 @@ class PtySerialPort(SensorPort):
     def close(self) -> None:
         """Close both ends; a companion still holding the slave then sees EOF / errors."""
         for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+            if fd >= 0:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
         self._master = self._slave = -1
+
+    def __del__(self) -> None:  # a forgotten port must not leak two fds per test
+        if getattr(self, "_master", -1) >= 0:
+            self.close()
 
 
 def update_all(ports: Sequence[SensorPort], truth: Truth, now: float) -> None:
     """Convenience for the simulator loop: update every port, in order."""
     for port in ports:
         port.update(truth, now)
+
+
+def default_ports(
+    origin: Origin,
+    scenario: Scenario | None = None,
+    beacons: Sequence[Beacon] = (),
+    *,
+    ranging: str = "acoustic",
+    pty: bool = True,
+) -> list[SensorPort]:
+    """The usual boat kit with default settings: NMEA GPS, HDT heading, echo sounder, DVL, and
+    (if ``beacons``) an acoustic LBL transceiver or a radio ranging receiver (``ranging``)."""
+    sensors: list[SerialSensor] = [
+        NmeaGps(origin=origin),
+        HeadingSensor(),
+        EchoSounder(),
+        DvlSensor(),
+    ]
+    if beacons:
+        if ranging == "acoustic":
+            sensors.append(AcousticLbl(beacons=beacons))
+        elif ranging == "radio":
+            sensors.append(RadioRanges(beacons=beacons))
+        else:
+            raise ValueError(f"ranging must be 'acoustic' or 'radio', not {ranging!r}")
+    cls = PtySerialPort if pty else SensorPort
+    return [cls(s, scenario) for s in sensors]

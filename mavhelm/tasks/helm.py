@@ -107,24 +107,52 @@ class Helm(App):
         if not self.online:
             self._flush()
             return
-        locked = [t for t in self.tasks if isinstance(t, EndMission) and t.active]
-        running = locked or [t for t in self.tasks if t.active]
-        ballots: list[tuple[Task, Votes]] = []
-        for t in running:
-            votes = t.step(self.nav, now)
-            if votes:
-                ballots.append((t, votes))
-        self._flush()
-        self.last_winners = arbitrate(ballots)
+        self.last_winners = arbitrate(self._run_tasks(now))
         self._post_desired()
 
-    def _flush(self) -> None:
+    def _locked(self) -> list[Task]:
+        return [t for t in self.tasks if isinstance(t, EndMission) and t.active]
+
+    def _run_tasks(self, now: float) -> list[tuple[Task, Votes]]:
+        """Step every active task once, in mission order, and collect their ballots.
+
+        Flags the tasks post are also offered to the tasks at once, so a task started by
+        another's FinishFlag runs in the same tick: no tick with nobody at the helm (and
+        DESIRED_THRUST = 0) between two legs. The bus delivers the same flags next tick, which
+        is harmless, since a task starts only once.
+        """
+        order = {id(t): i for i, t in enumerate(self.tasks)}
+        stepped: set[int] = set()
+        ballots: list[tuple[Task, Votes]] = []
+        while True:
+            todo = [t for t in (self._locked() or self.tasks) if t.active and id(t) not in stepped]
+            if not todo:
+                break
+            for t in todo:
+                stepped.add(id(t))
+                votes = t.step(self.nav, now)
+                if votes:
+                    ballots.append((t, votes))
+            for name, value in self._flush():
+                msg = Message(name, value, now, self.name)
+                for t in self.tasks:
+                    t.offer(msg, now)
+        locked = self._locked()
+        if locked:
+            ballots = [b for b in ballots if b[0] in locked]
+        return sorted(ballots, key=lambda b: order[id(b[0])])
+
+    def _flush(self) -> list[tuple[str, float | str]]:
+        """Post what the tasks queued; return it."""
+        posted: list[tuple[str, float | str]] = []
         for t in self.tasks:
             for name, value in t.take_notifications():
                 self.notify(name, value)
+                posted.append((name, value))
                 if name == "TASK_STARTED" and isinstance(t, EndMission) and not self.mission_ended:
                     self.mission_ended = True
                     self.notify("MISSION_ENDED", t.name)
+        return posted
 
     def _post_desired(self) -> None:
         limits = {

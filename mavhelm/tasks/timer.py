@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block, Entry
-from mavhelm.tasks.base import NavState, Task, Votes
+from mavhelm.companion.mission import Entry
+from mavhelm.tasks.base import Task
 
 
 class Timer(Task):
-    """Completes (cause ``complete``) when its TimeOut has elapsed: waiting is its goal."""
+    """Votes on nothing, needs nothing; ends by its TimeOut (cause ``timeout``), as in MOOS."""
 
     keyword = "Timer"
 
@@ -16,14 +16,3 @@ class Timer(Task):
         if timeout is None:
             raise entry.error("a Timer with TimeOut = NEVER would never finish")
         return timeout
-
-    def check(self, block: Block) -> None:
-        assert self.timeout is not None
-        self.duration: float = self.timeout
-        self.timeout = None
-
-    def update(self, nav: NavState, now: float) -> Votes | None:
-        assert self.start_time is not None
-        if now - self.start_time >= self.duration:
-            self.complete()
-        return None

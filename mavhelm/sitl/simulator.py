@@ -1,0 +1,878 @@
+"""The simulator: a vehicle model, the ArduPilot Rover logic and MAVLink links, in lockstep.
+
+``Simulator.step(now)`` is the whole world for one tick: read and obey every link, advance the
+physics in fixed 20 ms sub-steps (the autopilot's control loop runs in each), emit the telemetry
+streams that fell due, then feed the serial sensors. Nothing reads the wall clock and nothing
+blocks; randomness comes from ``numpy.random.default_rng(seed)`` and the scenario's named
+streams, so a run is repeatable from (seed, scenario, sequence of ``now``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.geo import Origin
+from mavhelm.sitl import autopilot as ap
+from mavhelm.sitl import boat, rover
+from mavhelm.sitl.links import Link, LinkHub
+from mavhelm.sitl.truth import Truth
+
+DEFAULT_HOME = Origin(56.0, -3.0)
+DT = 0.02  # physics and control-loop sub-step, s (ArduPilot Rover runs its controllers at 50 Hz)
+EPOCH_BASE = 1_767_225_600.0  # 2026-01-01 UTC: Unix time of sim t=0 when the clock is relative
+
+M = mavlink
+# Streams as ArduPilot groups them (Rover/GCS_Mavlink.cpp), for REQUEST_DATA_STREAM.
+STREAMS: dict[int, tuple[int, ...]] = {
+    M.MAV_DATA_STREAM_RAW_SENSORS: (M.MAVLINK_MSG_ID_RAW_IMU, M.MAVLINK_MSG_ID_SCALED_IMU2,
+                                    M.MAVLINK_MSG_ID_SCALED_PRESSURE),
+    M.MAV_DATA_STREAM_EXTENDED_STATUS: (
+        M.MAVLINK_MSG_ID_SYS_STATUS, M.MAVLINK_MSG_ID_POWER_STATUS, M.MAVLINK_MSG_ID_MEMINFO,
+        M.MAVLINK_MSG_ID_MISSION_CURRENT, M.MAVLINK_MSG_ID_GPS_RAW_INT,
+        M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT),
+    M.MAV_DATA_STREAM_POSITION: (M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
+                                 M.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
+    M.MAV_DATA_STREAM_RC_CHANNELS: (M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
+                                    M.MAVLINK_MSG_ID_RC_CHANNELS),
+    M.MAV_DATA_STREAM_EXTRA1: (M.MAVLINK_MSG_ID_ATTITUDE, M.MAVLINK_MSG_ID_SIMSTATE,
+                               M.MAVLINK_MSG_ID_AHRS2),
+    M.MAV_DATA_STREAM_EXTRA2: (M.MAVLINK_MSG_ID_VFR_HUD,),
+    M.MAV_DATA_STREAM_EXTRA3: (
+        M.MAVLINK_MSG_ID_AHRS, M.MAVLINK_MSG_ID_SYSTEM_TIME, M.MAVLINK_MSG_ID_RANGEFINDER,
+        M.MAVLINK_MSG_ID_DISTANCE_SENSOR, M.MAVLINK_MSG_ID_BATTERY_STATUS,
+        M.MAVLINK_MSG_ID_EKF_STATUS_REPORT, M.MAVLINK_MSG_ID_VIBRATION,
+        M.MAVLINK_MSG_ID_WHEEL_DISTANCE),
+}
+BOAT_ONLY = {M.MAVLINK_MSG_ID_RANGEFINDER, M.MAVLINK_MSG_ID_DISTANCE_SENSOR}
+ROVER_ONLY = {M.MAVLINK_MSG_ID_WHEEL_DISTANCE}
+HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT
+# Fixed emission order (deterministic): heartbeat first, then stream order.
+_ORDER = [HEARTBEAT] + [m for s in STREAMS.values() for m in s]
+_ORDER_INDEX = {m: i for i, m in enumerate(_ORDER)}
+
+GPS_NO_FIX_DOP = 9999  # a receiver without a fix reports DOP 99.99
+GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
+
+
+def _wrap_pi(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+class _GpsSample:
+    __slots__ = ("t", "fix", "x", "y", "vx", "vy", "sats", "eph")
+
+    def __init__(self, t: float, fix: int, x: float, y: float, vx: float, vy: float,
+                 sats: int, eph: int) -> None:
+        self.t, self.fix, self.x, self.y = t, fix, x, y
+        self.vx, self.vy, self.sats, self.eph = vx, vy, sats, eph
+
+
+class Simulator:
+    """A stand-in for ArduPilot Rover SITL that serves MAVLink on TCP ports and UDP outputs."""
+
+    def __init__(self, clock: Any, *, vehicle: str = "boat", variant: str | None = None,
+                 ports: Sequence[int] = (5760, 5762, 5763), host: str = "127.0.0.1",
+                 udp_out: Sequence[tuple[str, int]] = (), home: Origin = DEFAULT_HOME,
+                 start_heading: float = 0.0, fast_start: bool = False, scenario: Any = None,
+                 params: dict[str, float] | None = None, seed: int = 0,
+                 serial_sensors: Sequence[Any] = (), epoch: float | None = None) -> None:
+        if vehicle not in ("boat", "rover"):
+            raise ValueError(f"vehicle must be boat or rover, not {vehicle!r}")
+        self.vehicle = vehicle
+        self.is_boat = vehicle == "boat"
+        self.variant = variant or ("skid" if self.is_boat else "ackermann")
+        allowed = ("skid", "rudder") if self.is_boat else ("ackermann", "skid")
+        if self.variant not in allowed:
+            raise ValueError(f"{vehicle} variant must be one of {allowed}, not {self.variant!r}")
+        self.clock = clock
+        self.home = home
+        self.scenario = scenario
+        self.seed = seed
+        self.serial_sensors = list(serial_sensors)
+        self.boot = float(clock.now())
+        self._t = self.boot
+        self._n = 0  # sub-steps done: time is boot + n*DT exactly, no drift
+        self.epoch = (EPOCH_BASE if self.boot < 1e9 else 0.0) if epoch is None else epoch
+        self.rng = np.random.default_rng(seed)
+        self._scenario_rngs: dict[str, np.random.Generator] = {}
+        self._gps_rng = np.random.default_rng([seed, 1])
+        skid = self.variant == "skid"
+        timeline = ap.Timeline.fast() if fast_start else ap.Timeline()
+        sim_params = {"SIM_CURRENT_SPD": 0.0, "SIM_CURRENT_DIR": 0.0, "SIM_WIND_SPD": 0.0,
+                      "SIM_WIND_DIR": 0.0, "SIM_DEPTH": 20.0 if self.is_boat else 0.0,
+                      "SIM_GPS_NOISE": 0.4, "SIM_EKF_DR_TIME": 10.0}
+        merged = dict(sim_params)
+        merged.update({k.upper(): v for k, v in (params or {}).items()})
+        self.autopilot = ap.Autopilot(boat=self.is_boat, skid=skid, boot_time=self.boot,
+                                      timeline=timeline, params=merged)
+        self.params = self.autopilot.params
+        self._sysid = int(self.params["SYSID_THISMAV"])
+        hdg = math.radians(start_heading % 360.0)
+        if self.is_boat:
+            self._model_params: Any = boat.BoatParams(variant=self.variant)
+            self._state: Any = boat.BoatState(heading=hdg)
+            self._step_fn: Any = boat.step
+            self._truth_fn: Any = boat.truth
+        else:
+            self._model_params = rover.RoverParams(variant=self.variant)
+            self._state = rover.RoverState(heading=hdg)
+            self._step_fn = rover.step
+            self._truth_fn = rover.truth
+        self.env = self._env_from_params()
+        self.truth: Truth = self._truth_fn(self._state, self._t, self.env, self._model_params)
+        self._wheels = [0.0, 0.0]
+        # GPS and estimator state
+        self._gps_period = max(0.05, self.params.get("GPS_RATE_MS", 200) / 1000.0)
+        self._next_gps = self.boot
+        self._gps: _GpsSample | None = None
+        self._gps_history: deque[tuple[float, float, float, float, float]] = deque(maxlen=400)
+        self._gps_bias = [0.0, 0.0]
+        self._last_fix_t: float | None = None
+        self._glitch_since: float | None = None
+        self._est_x = 0.0
+        self._est_y = 0.0
+        self._compass_bias = 0.0
+        self._ever_fix = False
+        self._last_loc = (0, 0)
+        self.hub = LinkHub(ports, host, udp_out, srcSystem=self._sysid, srcComponent=1,
+                           scenario=scenario)
+        self._defaults: dict[int, float] = {HEARTBEAT: 1.0}
+        for msgs in STREAMS.values():
+            for mid in msgs:
+                if (mid in BOAT_ONLY and not self.is_boat) or (mid in ROVER_ONLY
+                                                               and self.is_boat):
+                    continue
+                self._defaults[mid] = 1.0
+        self._param_names = sorted(self.params)
+        self._init_new_links(self.boot)
+        self.autopilot.est = ap.Estimate(heading=start_heading % 360.0)
+
+    # ------------------------------------------------------------------ public API
+    @property
+    def ports(self) -> list[int]:
+        return self.hub.ports
+
+    @property
+    def links(self) -> list[Link]:
+        return self.hub.links
+
+    @property
+    def mode(self) -> str:
+        return self.autopilot.mode_name
+
+    @property
+    def armed(self) -> bool:
+        return self.autopilot.armed
+
+    def service(self, now: float) -> None:
+        """Accept clients, read and obey every link, send the immediate replies. Never blocks."""
+        self.hub.accept()
+        self._init_new_links(now)
+        for link in list(self.hub.links):
+            link.update_faults(now)
+            for msg in link.receive():
+                self._handle(link, msg, now)
+        self._drain_outbox(now)
+        self._flush()
+
+    def step(self, now: float) -> None:
+        """service(now), physics up to now, due telemetry, then the serial sensors."""
+        self.service(now)
+        while self.boot + (self._n + 1) * DT <= now + 1e-9:
+            self._n += 1
+            self._substep(self.boot + self._n * DT)
+        self.truth = self._truth_fn(self._state, self._t, self.env, self._model_params)
+        self._drain_outbox(now)
+        self._emit_streams(now)
+        self._flush()
+        for s in self.serial_sensors:
+            s.update(self.truth, now)
+
+    def close(self) -> None:
+        self.hub.close()
+
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ physics
+    def _env_from_params(self) -> boat.Environment:
+        p = self.params
+        cs, cd = p.get("SIM_CURRENT_SPD", 0.0), math.radians(p.get("SIM_CURRENT_DIR", 0.0))
+        return boat.Environment(current_east=cs * math.sin(cd), current_north=cs * math.cos(cd),
+                                wind_speed=p.get("SIM_WIND_SPD", 0.0),
+                                wind_from=p.get("SIM_WIND_DIR", 0.0),
+                                water_depth=p.get("SIM_DEPTH", 20.0))
+
+    def _vehicle_inputs(self) -> tuple[float, float]:
+        """Servo PWM → the model's actuator commands, via SERVOn_FUNCTION like SITL's frames."""
+        a = self.autopilot
+        outs = a.servo_outputs()
+        vals: dict[int, float] = {}
+        for ch, fn, lo, hi, trim, rev in a.servo_map():
+            pwm = outs[ch - 1]
+            v = (pwm - trim) / max((hi - trim) if pwm >= trim else (trim - lo), 1)
+            vals[fn] = -v if rev else v
+        if ap.FN_THROTTLE_LEFT in vals or ap.FN_THROTTLE_RIGHT in vals:
+            left = vals.get(ap.FN_THROTTLE_LEFT, 0.0)
+            right = vals.get(ap.FN_THROTTLE_RIGHT, 0.0)
+            steer, thr = 0.5 * (left - right), 0.5 * (left + right)
+        else:
+            steer = vals.get(ap.FN_STEERING, 0.0)
+            thr = vals.get(ap.FN_THROTTLE, 0.0)
+            left, right = thr + steer, thr - steer
+        if self.variant == "skid":
+            return left, right
+        return steer, thr
+
+    def _substep(self, t: float) -> None:
+        a = self.autopilot
+        self._update_gps(t)
+        self._update_estimate(t, DT)
+        a.update(t, DT)
+        inputs = self._vehicle_inputs()
+        self._state = self._step_fn(self._state, inputs, self.env, DT, self._model_params)
+        self._t = t
+        st = self._state
+        if self.is_boat:
+            s, c = math.sin(st.heading), math.cos(st.heading)
+            ce, cn = self.env.drift(self._model_params.leeway)
+            vx = st.u * s + st.v * c + ce
+            vy = st.u * c - st.v * s + cn
+            self._gps_history.append((t, st.x, st.y, vx, vy))
+        else:
+            vx, vy = st.speed * math.sin(st.heading), st.speed * math.cos(st.heading)
+            self._gps_history.append((t, st.x, st.y, vx, vy))
+            half = 0.2 * st.r  # wheel track 0.4 m
+            self._wheels[0] += (st.speed + half) * DT
+            self._wheels[1] += (st.speed - half) * DT
+
+    # ------------------------------------------------------------------ GPS + estimator
+    def _srng(self, name: str) -> np.random.Generator:
+        """The scenario's named random stream, drawn once and kept (scenario.rng is fresh)."""
+        g = self._scenario_rngs.get(name)
+        if g is None:
+            g = self._scenario_rngs[name] = self.scenario.rng(name)
+        return g
+
+    def _faults(self, kind: str, t: float) -> list[Any]:
+        if self.scenario is None:
+            return []
+        return list(self.scenario.active(kind, t))
+
+    def _update_gps(self, t: float) -> None:
+        if t + 1e-9 < self._next_gps:
+            return
+        self._next_gps += self._gps_period
+        if self._next_gps <= t:
+            self._next_gps = t + self._gps_period
+        a = self.autopilot
+        up = t - self.boot
+        rng = self._gps_rng
+        # slow random-walk error (a real receiver's wander) plus white noise, every sample
+        tau, sigma = 30.0, self.params.get("SIM_GPS_NOISE", 0.4)
+        k = self._gps_period / tau
+        for i in range(2):
+            self._gps_bias[i] += -k * self._gps_bias[i] + sigma * math.sqrt(2 * k) * rng.normal()
+        white = rng.normal(0.0, 1.0, 2) * (sigma / 8.0)
+        if up < a.timeline.gps_fix * 0.3:
+            self._gps = None  # not yet detected
+            a.gps_has_fix = False
+            return
+        delay = 0.0
+        for f in self._faults("sensor_latency", t):
+            if str(f.params.get("sensor", "gps")).lower() in ("gps", "gps1", "mavlink_gps"):
+                d = float(f.params.get("delay", 0.0))
+                jit = float(f.params.get("jitter", 0.0) or 0.0)
+                if jit > 0:
+                    d += float(self._srng("gps_latency").uniform(0, jit))
+                delay = max(delay, d)
+        ts, x, y, vx, vy = self._history_at(t - delay)
+        outage = up < a.timeline.gps_fix or bool(self._faults("gps_outage", t))
+        if outage:
+            self._gps = _GpsSample(t, 1, x, y, 0.0, 0.0, 0, GPS_NO_FIX_DOP)
+            if self._ever_fix:
+                g = self._gps
+                g.x, g.y = self._last_loc
+            a.gps_has_fix = False
+            return
+        x += self._gps_bias[0] + white[0]
+        y += self._gps_bias[1] + white[1]
+        for f in self._faults("gps_jump", t):
+            x += float(f.params.get("dx", 0.0))
+            y += float(f.params.get("dy", 0.0))
+        for f in self._faults("gps_outlier", t):
+            r = self._srng("gps_outlier")
+            if r.random() < float(f.params.get("prob", 0.0)):
+                s = float(f.params.get("sigma", 10.0))
+                x += float(r.normal(0.0, s))
+                y += float(r.normal(0.0, s))
+        self._gps = _GpsSample(t, 3, x, y, vx, vy, 10, 121)
+        self._last_loc = (x, y)
+        self._ever_fix = True
+        a.gps_has_fix = True
+
+    def _history_at(self, t: float) -> tuple[float, float, float, float, float]:
+        h = self._gps_history
+        if not h:
+            st = self.truth
+            return (self._t, st.x, st.y, st.vx, st.vy)
+        if t >= h[-1][0]:
+            return h[-1]
+        for item in reversed(h):
+            if item[0] <= t:
+                return item
+        return h[0]
+
+    def _update_estimate(self, t: float, dt: float) -> None:
+        """A simple EKF stand-in: GPS-corrected position, dead reckoning without GPS."""
+        a = self.autopilot
+        est = a.est
+        st = self._state
+        bias = 0.0
+        for f in self._faults("compass_bias", t):
+            bias += float(f.params.get("deg", 0.0))
+        self._compass_bias = bias
+        true_hdg = math.degrees(st.heading)
+        est.heading = (true_hdg + bias) % 360.0
+        est.yaw_rate = math.degrees(st.r)
+        g = self._gps
+        fresh = g is not None and g.fix >= 3 and g.t == t
+        if g is not None and g.fix >= 3:
+            self._last_fix_t = g.t
+        up = t - self.boot
+        have_origin = a.ekf_origin is not None
+        using_gps = up >= a.timeline.ekf_gps
+        if self.is_boat:
+            h = math.radians(est.heading)
+            u, v = st.u, st.v
+            dr_vx, dr_vy = u * math.sin(h) + v * math.cos(h), u * math.cos(h) - v * math.sin(h)
+        else:
+            h = math.radians(est.heading)
+            dr_vx, dr_vy = st.speed * math.sin(h), st.speed * math.cos(h)
+        recent = self._last_fix_t is not None and t - self._last_fix_t < 0.5
+        if recent and g is not None:
+            est.vx, est.vy = g.vx, g.vy
+        else:
+            est.vx, est.vy = dr_vx, dr_vy
+        if not have_origin:
+            # before the origin the EKF sits at the first fix (const-position mode)
+            if g is not None and g.fix >= 3:
+                est.x, est.y = g.x, g.y
+            est.position_ok = False
+            return
+        est.x += est.vx * dt
+        est.y += est.vy * dt
+        if fresh and g is not None:
+            ix, iy = g.x - est.x, g.y - est.y
+            if math.hypot(ix, iy) > 10.0:
+                # innovation gate: a glitching GPS is ignored, then the EKF resets onto it
+                if self._glitch_since is None:
+                    self._glitch_since = t
+                if t - self._glitch_since > 5.0:
+                    est.x, est.y = g.x, g.y
+                    self._glitch_since = None
+            else:
+                self._glitch_since = None
+                est.x += 0.3 * ix
+                est.y += 0.3 * iy
+        dr_limit = self.params.get("SIM_EKF_DR_TIME", 10.0)
+        dr_ok = self._last_fix_t is not None and t - self._last_fix_t < dr_limit
+        est.position_ok = using_gps and dr_ok
+
+    # ------------------------------------------------------------------ links and streams
+    def _init_new_links(self, now: float) -> None:
+        for link in self.hub.new_links:
+            link.order = _ORDER_INDEX
+            for mid, iv in self._defaults.items():
+                link.set_interval(mid, iv, now)
+        self.hub.new_links.clear()
+
+    def _flush(self) -> None:
+        for link in self.hub.links:
+            link.flush()
+        self.hub.prune()
+
+    def _broadcast(self, msg: Any, exclude: Link | None = None) -> None:
+        for link in self.hub.links:
+            if link is not exclude:
+                link.send(msg)
+
+    def _drain_outbox(self, now: float) -> None:
+        out = self.autopilot.out
+        if out.heartbeat:
+            out.heartbeat = False
+            self._broadcast(self._build(HEARTBEAT, now))
+        for sev, text in out.texts:
+            self._broadcast(M.MAVLink_statustext_message(sev, text.encode()[:50], 0, 0))
+        out.texts.clear()
+        for seq in out.reached:
+            self._broadcast(M.MAVLink_mission_item_reached_message(seq))
+        out.reached.clear()
+        for name in out.params:
+            self._broadcast(self._param_value(name))
+        out.params.clear()
+
+    def _emit_streams(self, now: float) -> None:
+        cache: dict[int, Any] = {}
+        limit = now + 1e-9
+        for link in self.hub.links:
+            if link.next_any > limit:
+                continue
+            due = link.next_due
+            iv = link.intervals
+            for mid in link.schedule():
+                t_due = due[mid]
+                if t_due > limit:
+                    continue
+                interval = iv[mid]
+                nxt = t_due + interval
+                due[mid] = nxt if nxt > limit else now + interval
+                msg = cache.get(mid)
+                if msg is None:
+                    msg = self._build(mid, now)
+                    cache[mid] = msg if msg is not None else False
+                if msg:
+                    link.send(msg)
+            link.next_any = min(due[m] for m in link.schedule()) if link.schedule() else 1e300
+
+    # ------------------------------------------------------------------ message building
+    def _boot_ms(self, now: float) -> int:
+        return int(max(0.0, now - self.boot) * 1000) & 0xFFFFFFFF
+
+    def _latlon(self, x: float, y: float) -> tuple[int, int]:
+        lat, lon = self.home.to_global(x, y)
+        return int(round(lat * 1e7)), int(round(lon * 1e7))
+
+    def _build(self, mid: int, now: float) -> Any:
+        """One telemetry message of id mid as of now, or None if it has nothing to say."""
+        a = self.autopilot
+        est = a.est
+        tr = self.truth
+        boot_ms = self._boot_ms(now)
+        if mid == HEARTBEAT:
+            mav_type = M.MAV_TYPE_SURFACE_BOAT if self.is_boat else M.MAV_TYPE_GROUND_ROVER
+            return M.MAVLink_heartbeat_message(mav_type, M.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                               a.base_mode(), a.mode, a.system_status(), 3)
+        if mid == M.MAVLINK_MSG_ID_ATTITUDE:
+            return M.MAVLink_attitude_message(boot_ms, math.radians(tr.roll),
+                                              math.radians(tr.pitch),
+                                              _wrap_pi(math.radians(est.heading)), 0.0, 0.0,
+                                              math.radians(est.yaw_rate))
+        if mid == M.MAVLINK_MSG_ID_GPS_RAW_INT:
+            return self._gps_raw(now)
+        if mid == M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            if a.ekf_origin is None:
+                lat = lon = 0
+            else:
+                lat, lon = self._latlon(est.x, est.y)
+            hdg = int(round(est.heading * 100)) % 36000
+            return M.MAVLink_global_position_int_message(
+                boot_ms, lat, lon, 0, 0, int(round(est.vy * 100)), int(round(est.vx * 100)), 0,
+                hdg)
+        if mid == M.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
+            if a.ekf_origin is None:
+                return None
+            ox, oy = a.ekf_origin
+            return M.MAVLink_local_position_ned_message(boot_ms, est.y - oy, est.x - ox, 0.0,
+                                                        est.vy, est.vx, 0.0)
+        if mid == M.MAVLINK_MSG_ID_VFR_HUD:
+            spd = math.hypot(est.vx, est.vy)
+            return M.MAVLink_vfr_hud_message(spd, spd, int(est.heading) % 360,
+                                             int(round(abs(a.mix()[1]) * 100)), 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_SYS_STATUS:
+            sensors = 0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x10000000
+            health = sensors
+            if not a.gps_has_fix:
+                health &= ~0x20
+            if not est.position_ok:
+                health &= ~0x200000
+            return M.MAVLink_sys_status_message(sensors, sensors, health, 150, 12600, 150, 90,
+                                                0, 0, 0, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_SYSTEM_TIME:
+            unix = int((now + self.epoch) * 1e6) if self._ever_fix else 0
+            return M.MAVLink_system_time_message(unix, boot_ms)
+        if mid == M.MAVLINK_MSG_ID_RAW_IMU:
+            xm, ym, zm = self._mag()
+            return M.MAVLink_raw_imu_message(int((now - self.boot) * 1e6), 0, 0, -1000, 0, 0,
+                                             int(math.radians(tr.yaw_rate) * 1000), xm, ym, zm,
+                                             0, 0)
+        if mid == M.MAVLINK_MSG_ID_SCALED_IMU2:
+            xm, ym, zm = self._mag()
+            return M.MAVLink_scaled_imu2_message(boot_ms, 0, 0, -1000, 0, 0,
+                                                 int(math.radians(tr.yaw_rate) * 1000), xm, ym,
+                                                 zm, 0)
+        if mid == M.MAVLINK_MSG_ID_SCALED_PRESSURE:
+            return M.MAVLink_scaled_pressure_message(boot_ms, 1013.25, 0.0, 2000, 0)
+        if mid == M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW:
+            o = a.servo_outputs()
+            return M.MAVLink_servo_output_raw_message(int((now - self.boot) * 1e6) & 0xFFFFFFFF,
+                                                      0, *o)
+        if mid == M.MAVLINK_MSG_ID_RC_CHANNELS:
+            rc = a.rc_in(now)
+            return M.MAVLink_rc_channels_message(boot_ms, 16, *rc[:18], 255)
+        if mid == M.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
+            flags, var = self._ekf_flags(now)
+            return M.MAVLink_ekf_status_report_message(flags, var, var, 0.01, 0.02, 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+            depth_cm = int(round(tr.water_depth * 100))
+            return M.MAVLink_distance_sensor_message(boot_ms, 20, 10000, min(depth_cm, 10000),
+                                                     M.MAV_DISTANCE_SENSOR_ULTRASOUND, 0,
+                                                     M.MAV_SENSOR_ROTATION_PITCH_270, 0)
+        if mid == M.MAVLINK_MSG_ID_RANGEFINDER:
+            return M.MAVLink_rangefinder_message(min(tr.water_depth, 100.0), 0.0)
+        if mid == M.MAVLINK_MSG_ID_WHEEL_DISTANCE:
+            d = self._wheels + [0.0] * 14
+            return M.MAVLink_wheel_distance_message(int((now - self.boot) * 1e6), 2, d)
+        if mid == M.MAVLINK_MSG_ID_SIMSTATE:
+            lat, lon = self._latlon(tr.x, tr.y)
+            return M.MAVLink_simstate_message(math.radians(tr.roll), math.radians(tr.pitch),
+                                              _wrap_pi(math.radians(tr.heading)), 0.0, 0.0,
+                                              -9.81, 0.0, 0.0, math.radians(tr.yaw_rate),
+                                              lat, lon)
+        if mid == M.MAVLINK_MSG_ID_AHRS2:
+            lat, lon = self._latlon(est.x, est.y) if a.ekf_origin is not None else (0, 0)
+            return M.MAVLink_ahrs2_message(0.0, 0.0, _wrap_pi(math.radians(est.heading)), 0.0,
+                                           lat, lon)
+        if mid == M.MAVLINK_MSG_ID_AHRS:
+            return M.MAVLink_ahrs_message(0.0, 0.0, 0.0, 0.0, 0.0, 0.001, 0.001)
+        if mid == M.MAVLINK_MSG_ID_POWER_STATUS:
+            return M.MAVLink_power_status_message(5000, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_MEMINFO:
+            return M.MAVLink_meminfo_message(0, 65535, 131072)
+        if mid == M.MAVLINK_MSG_ID_MISSION_CURRENT:
+            return M.MAVLink_mission_current_message(0, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT:
+            return self._nav_controller()
+        if mid == M.MAVLINK_MSG_ID_BATTERY_STATUS:
+            return M.MAVLink_battery_status_message(0, 0, 0, 32767, [12600] + [65535] * 9, 150,
+                                                    -1, -1, 90)
+        if mid == M.MAVLINK_MSG_ID_VIBRATION:
+            return M.MAVLink_vibration_message(int((now - self.boot) * 1e6), 0.01, 0.01, 0.01,
+                                               0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_HOME_POSITION:
+            if a.home is None:
+                return None
+            lat, lon = self._latlon(*a.home)
+            ox, oy = a.ekf_origin or a.home
+            return M.MAVLink_home_position_message(lat, lon, 0, a.home[1] - oy, a.home[0] - ox,
+                                                   0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
+            if a.ekf_origin is None:
+                return None
+            lat, lon = self._latlon(*a.ekf_origin)
+            return M.MAVLink_gps_global_origin_message(lat, lon, 0)
+        if mid == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            caps = (M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | M.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+                    | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
+            version = (4 << 24) | (7 << 16) | (0 << 8) | 0  # 4.7.0-dev
+            return M.MAVLink_autopilot_version_message(caps, version, 0, 0, 0, [0] * 8, [0] * 8,
+                                                       [0] * 8, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT:
+            if a.mode != ap.GUIDED or a.wp is None:
+                return None
+            lat, lon = self._latlon(*a.wp)
+            return M.MAVLink_position_target_global_int_message(
+                boot_ms, M.MAV_FRAME_GLOBAL, 0xFF8, lat, lon, 0.0, 0, 0, 0, 0, 0, 0, 0, 0)
+        return None
+
+    def _mag(self) -> tuple[int, int, int]:
+        h = math.radians(self.autopilot.est.heading)
+        return int(200 * math.cos(h)), int(-200 * math.sin(h)), 400
+
+    def _gps_raw(self, now: float) -> Any:
+        g = self._gps
+        t_us = int((now + self.epoch) * 1e6) if self._ever_fix else 0
+        if g is None:
+            return M.MAVLink_gps_raw_int_message(0, M.GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
+                                                 GPS_UNKNOWN_DOP, GPS_UNKNOWN_DOP, 0, 0, 0)
+        if g.fix < 3:
+            lat, lon = self._latlon(g.x, g.y) if self._ever_fix else (0, 0)
+            return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_NO_FIX, lat, lon, 0,
+                                                 g.eph, g.eph, 0, 0, 0)
+        lat, lon = self._latlon(g.x, g.y)
+        vel = math.hypot(g.vx, g.vy)
+        cog = int(round(math.degrees(math.atan2(g.vx, g.vy)) * 100)) % 36000 if vel > 0.05 else 0
+        return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, g.eph,
+                                             200, int(round(vel * 100)), cog, g.sats, 0, 300,
+                                             500, 150, 0, 0)
+
+    def _ekf_flags(self, now: float) -> tuple[int, float]:
+        a = self.autopilot
+        up = now - self.boot
+        if up < a.timeline.initialised:
+            return M.EKF_UNINITIALIZED, 1.0
+        flags = M.EKF_ATTITUDE | M.EKF_VELOCITY_VERT | M.EKF_POS_VERT_ABS
+        var = 0.5
+        if a.est.position_ok:
+            flags |= (M.EKF_VELOCITY_HORIZ | M.EKF_POS_HORIZ_REL | M.EKF_POS_HORIZ_ABS
+                      | M.EKF_PRED_POS_HORIZ_REL | M.EKF_PRED_POS_HORIZ_ABS)
+            var = 0.02 if a.gps_has_fix else 0.3
+        else:
+            flags |= M.EKF_CONST_POS_MODE
+            if a.gps_has_fix:
+                flags |= M.EKF_PRED_POS_HORIZ_REL | M.EKF_PRED_POS_HORIZ_ABS
+        if self._glitch_since is not None:
+            flags |= M.EKF_GPS_GLITCHING
+            var = 1.0
+        return flags, var
+
+    def _nav_controller(self) -> Any:
+        a = self.autopilot
+        tgt = a.wp if a.mode in (ap.GUIDED, ap.RTL, ap.SMART_RTL) and a.wp else None
+        if tgt is None and a.mode in (ap.LOITER,) or (a.mode == ap.GUIDED
+                                                      and a.guided_sub == "loiter"):
+            tgt = a.loiter_point
+        if tgt is None:
+            bearing = int(a.des_heading) if a.guided_sub == "heading" else 0
+            return M.MAVLink_nav_controller_output_message(0.0, 0.0, bearing, 0, 0, 0.0, 0.0, 0.0)
+        dx, dy = tgt[0] - a.est.x, tgt[1] - a.est.y
+        b = int(round(math.degrees(math.atan2(dx, dy))))
+        return M.MAVLink_nav_controller_output_message(0.0, 0.0, b, b,
+                                                       min(int(math.hypot(dx, dy)), 65535),
+                                                       0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ parameters
+    def _param_type(self, name: str) -> int:
+        v = self.params[name]
+        float_like = (not float(v).is_integer() or any(
+            k in name for k in ("SPEED", "TIME", "RADIUS", "ATC_", "WP_", "CRUISE", "LOIT_",
+                                "SIM_", "GAIN", "ACCEL", "TURN_RATE")))
+        return M.MAV_PARAM_TYPE_REAL32 if float_like else M.MAV_PARAM_TYPE_INT16
+
+    def _param_value(self, name: str) -> Any:
+        idx = self._param_names.index(name) if name in self._param_names else 65535
+        return M.MAVLink_param_value_message(name.encode(), float(self.params[name]),
+                                             self._param_type(name), len(self._param_names), idx)
+
+    def _set_param(self, name: str, value: float) -> bool:
+        if name not in self.params:
+            return False
+        if self._param_type(name) != M.MAV_PARAM_TYPE_REAL32:
+            value = float(int(round(value)))
+        self.params[name] = float(value)
+        self.autopilot.invalidate()
+        if name.startswith("SIM_"):
+            self.env = self._env_from_params()
+        if name == "SYSID_THISMAV":
+            self._sysid = int(value)
+            for link in self.hub.links:
+                link.mav.srcSystem = self._sysid
+            self.hub._src = (self._sysid, 1)
+        if name == "GPS_RATE_MS":
+            self._gps_period = max(0.05, value / 1000.0)
+        return True
+
+    # ------------------------------------------------------------------ message handling
+    def _for_us(self, msg: Any) -> bool:
+        ts = getattr(msg, "target_system", 0)
+        tc = getattr(msg, "target_component", 0)
+        return ts in (0, self._sysid) and tc in (0, 1)
+
+    def _forward(self, link: Link, msg: Any) -> None:
+        """MAVLink routing: broadcasts go to every other link; targeted ones to where the
+        target system was seen."""
+        ts = getattr(msg, "target_system", None)
+        tc = getattr(msg, "target_component", 0)
+        raw = None
+        for other in self.hub.links:
+            if other is link:
+                continue
+            seen = other.systems_seen
+            if (ts is None or ts == 0 or (ts, tc) in seen
+                    or (tc == 0 and any(s == ts for s, _ in seen))):
+                if raw is None:
+                    raw = bytes(msg.get_msgbuf())
+                other.send_raw(raw)
+
+    def _ack(self, link: Link, msg: Any, command: int, result: int) -> None:
+        link.send(M.MAVLink_command_ack_message(command, result, 0, 0, msg.get_srcSystem(),
+                                                msg.get_srcComponent()))
+
+    def _handle(self, link: Link, msg: Any, now: float) -> None:
+        src = msg.get_srcSystem()
+        link.systems_seen.add((src, msg.get_srcComponent()))
+        self._forward(link, msg)
+        t = msg.get_type()
+        a = self.autopilot
+        if t == "HEARTBEAT":
+            a.gcs_heartbeat(src, now)
+            return
+        if not self._for_us(msg):
+            return
+        if t == "COMMAND_LONG":
+            self._command(link, msg, now, msg.command,
+                          [msg.param1, msg.param2, msg.param3, msg.param4, msg.param5,
+                           msg.param6, msg.param7], None)
+        elif t == "COMMAND_INT":
+            self._command(link, msg, now, msg.command,
+                          [msg.param1, msg.param2, msg.param3, msg.param4, msg.x, msg.y, msg.z],
+                          msg.frame)
+        elif t == "SET_MODE":
+            if msg.base_mode & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                a.set_mode(int(msg.custom_mode), now)
+        elif t == "SET_ATTITUDE_TARGET":
+            a.set_attitude_target(msg.type_mask, tuple(msg.q), msg.body_yaw_rate, msg.thrust,
+                                  now)
+        elif t == "SET_POSITION_TARGET_LOCAL_NED":
+            self._position_target_local(msg, now)
+        elif t == "SET_POSITION_TARGET_GLOBAL_INT":
+            self._position_target_global(msg, now)
+        elif t == "RC_CHANNELS_OVERRIDE":
+            vals = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
+            a.rc_override_msg(src, vals, now)
+        elif t == "PARAM_REQUEST_LIST":
+            for name in self._param_names:
+                link.send(self._param_value(name))
+        elif t == "PARAM_REQUEST_READ":
+            name = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
+            name = name.rstrip("\x00")
+            if msg.param_index >= 0 and msg.param_index < len(self._param_names):
+                name = self._param_names[msg.param_index]
+            if name in self.params:
+                link.send(self._param_value(name))
+        elif t == "PARAM_SET":
+            name = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
+            name = name.rstrip("\x00")
+            if self._set_param(name, msg.param_value):
+                self._broadcast(self._param_value(name))
+        elif t == "REQUEST_DATA_STREAM":
+            self._request_data_stream(link, msg, now)
+        elif t == "MISSION_REQUEST_LIST":
+            link.send(M.MAVLink_mission_count_message(src, msg.get_srcComponent(), 0,
+                                                      getattr(msg, "mission_type", 0)))
+        elif t == "SYSTEM_TIME":
+            pass
+
+    def _request_data_stream(self, link: Link, msg: Any, now: float) -> None:
+        rate = msg.req_message_rate if msg.start_stop else 0
+        ids = (STREAMS.keys() if msg.req_stream_id == M.MAV_DATA_STREAM_ALL
+               else [msg.req_stream_id])
+        for sid in ids:
+            for mid in STREAMS.get(sid, ()):
+                if (mid in BOAT_ONLY and not self.is_boat) or (mid in ROVER_ONLY
+                                                               and self.is_boat):
+                    continue
+                if rate > 0:
+                    link.set_interval(mid, 1.0 / rate,
+                                      min(link.next_due.get(mid, now), now + 1.0 / rate))
+                else:
+                    link.set_interval(mid, 0.0, now)
+
+    def _command(self, link: Link, msg: Any, now: float, cmd: int, p: list[float],
+                 frame: int | None) -> None:
+        a = self.autopilot
+        result = ap.RESULT_UNSUPPORTED
+        after: Any = None
+        if cmd == M.MAV_CMD_DO_SET_MODE:
+            # GCS_MAVLINK::_set_mode_common: only custom modes; anything else is DENIED
+            result = ap.RESULT_DENIED
+            if int(p[0]) & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                ok = a.set_mode(int(p[1]), now)
+                result = ap.RESULT_ACCEPTED if ok else ap.RESULT_FAILED
+        elif cmd == M.MAV_CMD_COMPONENT_ARM_DISARM:
+            result = a.arm(p[0] > 0.5, now, force=int(round(p[1])) in (2989, 21196))
+        elif cmd == M.MAV_CMD_DO_SET_SERVO:
+            result = a.do_set_servo(int(p[0]), int(p[1]))
+        elif cmd == M.MAV_CMD_SET_MESSAGE_INTERVAL:
+            mid, us = int(p[0]), p[1]
+            probe = self._build(mid, now) if mid not in self._defaults else True
+            if probe is None and mid not in _ORDER and mid not in (
+                    M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
+                    M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT):
+                a.out.texts.append((ap.SEVERITY_INFO, f"No ap_message for mavlink id ({mid})"))
+                result = ap.RESULT_DENIED
+            else:
+                if us < 0:
+                    iv = 0.0
+                elif us == 0:
+                    iv = self._defaults.get(mid, 0.0)
+                else:
+                    iv = us / 1e6
+                link.set_interval(mid, iv, now + iv)
+                result = ap.RESULT_ACCEPTED
+        elif cmd == M.MAV_CMD_GET_MESSAGE_INTERVAL:
+            mid = int(p[0])
+            iv = link.intervals.get(mid, 0.0)
+            after = M.MAVLink_message_interval_message(mid, int(iv * 1e6) if iv > 0 else -1)
+            result = ap.RESULT_ACCEPTED
+        elif cmd == M.MAV_CMD_REQUEST_MESSAGE:
+            mid = int(p[0])
+            if mid == M.MAVLINK_MSG_ID_PARAM_VALUE:
+                result = ap.RESULT_DENIED
+            else:
+                after = self._build(mid, now)
+                result = ap.RESULT_ACCEPTED if after is not None else ap.RESULT_DENIED
+        elif cmd == M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            after = self._build(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, now)
+            result = ap.RESULT_ACCEPTED
+        elif cmd == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            result = ap.RESULT_ACCEPTED if a.set_mode(ap.RTL, now) else ap.RESULT_FAILED
+        elif cmd == M.MAV_CMD_MISSION_START:
+            result = ap.RESULT_ACCEPTED if a.set_mode(ap.AUTO, now) else ap.RESULT_FAILED
+        elif cmd == M.MAV_CMD_DO_CHANGE_SPEED:
+            if a.mode == ap.GUIDED and a.guided_sub in ("wp", "loiter") and p[1] > 0:
+                a.params["WP_SPEED"] = float(p[1])
+                result = ap.RESULT_ACCEPTED
+            else:
+                result = ap.RESULT_FAILED
+        elif cmd == M.MAV_CMD_DO_REPOSITION and frame is not None:
+            lat, lon = p[4] / 1e7, p[5] / 1e7
+            if lat == 0 and lon == 0:
+                result = ap.RESULT_DENIED
+            else:
+                x, y = self.home.to_local(lat, lon)
+                change = bool(int(p[1]) & M.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE)
+                result = a.guided_reposition(x, y, p[0], change, now)
+        self._ack(link, msg, cmd, result)
+        if after is not None:
+            link.send(after)
+
+    def _position_target_local(self, msg: Any, now: float) -> None:
+        a = self.autopilot
+        if a.mode != ap.GUIDED or a.ekf_origin is None:
+            return
+        f = msg.coordinate_frame
+        if f not in (M.MAV_FRAME_LOCAL_NED, M.MAV_FRAME_LOCAL_OFFSET_NED, M.MAV_FRAME_BODY_NED,
+                     M.MAV_FRAME_BODY_OFFSET_NED):
+            return
+        body = f in (M.MAV_FRAME_BODY_NED, M.MAV_FRAME_BODY_OFFSET_NED)
+        est = a.est
+        if f == M.MAV_FRAME_LOCAL_NED:
+            ox, oy = a.ekf_origin
+            x, y = ox + msg.y, oy + msg.x
+        elif f == M.MAV_FRAME_LOCAL_OFFSET_NED:
+            x, y = est.x + msg.y, est.y + msg.x
+        else:
+            h = math.radians(est.heading)
+            north = msg.x * math.cos(h) - msg.y * math.sin(h)
+            east = msg.x * math.sin(h) + msg.y * math.cos(h)
+            x, y = est.x + east, est.y + north
+        a.set_position_target(type_mask=msg.type_mask, frame="body" if body else "ned", x=x, y=y,
+                              vx=msg.vx, vy=msg.vy, yaw=msg.yaw, yaw_rate=msg.yaw_rate, now=now)
+
+    def _position_target_global(self, msg: Any, now: float) -> None:
+        a = self.autopilot
+        if a.mode != ap.GUIDED:
+            return
+        if msg.coordinate_frame not in (0, 3, 5, 6, 10, 11):
+            return
+        x = y = None
+        if (msg.type_mask & ap.POS_IGNORE) != ap.POS_IGNORE:
+            if abs(msg.lat_int) > 900_000_000 or abs(msg.lon_int) > 1_800_000_000:
+                return
+            x, y = self.home.to_local(msg.lat_int / 1e7, msg.lon_int / 1e7)
+        a.set_position_target(type_mask=msg.type_mask, frame="ned", x=x, y=y, vx=msg.vx,
+                              vy=msg.vy, yaw=msg.yaw, yaw_rate=msg.yaw_rate, now=now)
