@@ -76,7 +76,7 @@ class _Client:
             t0 = time.monotonic()
             self.system = self.mav.first_autopilot(10.0)
             self.discovery_s = time.monotonic() - t0
-            assert self.system is not None, self.fail_text("first_autopilot(10.0) found no autopilot")
+            assert self.system is not None, self.fail_text("first_autopilot(10.0) found nothing")
             self.telemetry = Telemetry(self.system)
             self.action = Action(self.system)
             self.direct = MavlinkDirect(self.system)

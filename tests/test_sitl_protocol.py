@@ -269,6 +269,23 @@ def test_udp_out_link():
         link = r.sim.links[0]
         assert link.peer == ("127.0.0.1", rx.getsockname()[1])
         assert link.bytes_sent >= len(data)
+        # the ground station answers from its port: commands over UDP are obeyed and ACKed
+        gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+        msg = gcs.command_long_encode(1, 1, M.MAV_CMD_DO_SET_MODE, 0, 1, 4, 0, 0, 0, 0, 0)
+        rx.sendto(msg.pack(gcs), link.sock.getsockname())
+        for _ in range(20):
+            r.sim.step(r.clock.advance(0.05))
+            if r.sim.mode == "HOLD":
+                break
+        assert r.sim.mode == "HOLD"
+        parser = mavlink.MAVLink(None)
+        parser.robust_parsing = True
+        acks = []
+        while len(acks) == 0:
+            for m in parser.parse_buffer(rx.recv(65536)) or []:
+                if m.get_type() == "COMMAND_ACK":
+                    acks.append(m)
+        assert acks[0].result == 0
     finally:
         r.close()
         rx.close()

@@ -124,16 +124,13 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     xs = [s.x for s in track]
     ys = [s.y for s in track]
     ax.plot(xs, ys, color="0.8", lw=1, zorder=1)
-    segments: dict[str, tuple[list[float], list[float]]] = {}
-    for s in track:
-        name = owner_at(s.t)
+    for name in names:
         if name == "none":
             continue
-        seg = segments.setdefault(name, ([], []))
-        seg[0].append(s.x)
-        seg[1].append(s.y)
-    for name, (sx, sy) in segments.items():
-        ax.scatter(sx, sy, s=2, color=colours.get(name, "k"), label=f"rudder: {name}", zorder=2)
+        held = [owner_at(s.t) == name for s in track]
+        sx = [s.x if h else math.nan for s, h in zip(track, held, strict=True)]
+        sy = [s.y if h else math.nan for s, h in zip(track, held, strict=True)]
+        ax.plot(sx, sy, color=colours[name], lw=2.5, label=f"rudder: {name}", zorder=2)
     for name, x, y in waypoints(mission):
         ax.plot(x, y, marker="*", ms=14, color="crimson", zorder=3)
         ax.annotate(name, (x, y), textcoords="offset points", xytext=(6, 6))
@@ -144,7 +141,7 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     ax.set_ylabel("Y north (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8, markerscale=4)
+    ax.legend(loc="best", fontsize=8)
     ax.set_title(title or "Track (ground truth)")
     ax_h.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
     for when, name in owners:

@@ -100,7 +100,8 @@ def default_params(boat: bool, skid: bool) -> dict[str, float]:
         "FRAME_CLASS": 2 if boat else 1, "FRAME_TYPE": 0, "INITIAL_MODE": 0,
         "GUID_TIMEOUT": GUIDED_TIMEOUT, "GUID_OPTIONS": 0, "MIS_DONE_BEHAVE": 0,
         "ARMING_CHECK": 1, "ARMING_REQUIRE": 1, "PILOT_STEER_TYPE": 0,
-        "ATC_STR_RAT_MAX": 60.0 if boat else 120.0, "ATC_STR_ACC_MAX": 120.0,
+        # controller gains are tuned for the simulator's models (Rover's defaults are generic)
+        "ATC_STR_RAT_MAX": 120.0, "ATC_STR_ACC_MAX": 120.0,
         "ATC_STR_ANG_P": 2.0, "ATC_STR_RAT_FF": 1.0 if boat else 0.6,
         "ATC_STR_RAT_P": 0.4, "ATC_STR_RAT_I": 0.3, "ATC_STR_RAT_IMAX": 0.5,
         "ATC_SPEED_P": 0.3, "ATC_SPEED_I": 0.3, "ATC_SPEED_IMAX": 0.5,
@@ -610,7 +611,12 @@ class Autopilot:
             return
         m = self.mode
         if m == MANUAL:
-            self.steering, self.throttle = self.pilot_input(now)
+            steer, thr = self.pilot_input(now)
+            sat = abs(steer) + abs(thr)
+            if self.skid and sat > 1.0:
+                # Mode::get_pilot_desired_steering_and_throttle: scale both, keep the ratio
+                steer, thr = steer / sat, thr / sat
+            self.steering, self.throttle = steer, thr
         elif m in (ACRO, STEERING, SIMPLE):
             steer, thr = self.pilot_input(now)
             rate = steer * self.params["ACRO_TURN_RATE"]
