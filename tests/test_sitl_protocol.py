@@ -415,3 +415,41 @@ def test_link_corruption_faults_keep_stream_parsable(kind):
                 len(m.get_msgbuf()) for m in c.msgs)
     finally:
         r.close()
+
+
+# ---------------------------------------------------------------------------- modes that navigate
+
+
+def test_current_drifts_a_holding_boat_but_loiter_holds_station():
+    r = Rig(params={"SIM_CURRENT_SPD": 0.3, "SIM_CURRENT_DIR": 90.0}, ports=(0,))
+    try:
+        c = r.connect()
+        r.run(3.0)
+        command(c, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        command(c, M.MAV_CMD_DO_SET_MODE, 1, 4)  # HOLD: motors off, the current carries it
+        r.run(20.0, 0.1)
+        x0 = r.sim.truth.x
+        assert x0 > 5.0
+        command(c, M.MAV_CMD_DO_SET_MODE, 1, 5)  # LOITER where it is now
+        r.run(60.0, 0.1)
+        assert math.hypot(r.sim.truth.x - x0, r.sim.truth.y) < 4.0
+    finally:
+        r.close()
+
+
+def test_rtl_brings_the_rover_home():
+    r = Rig(vehicle="rover", ports=(0,))
+    try:
+        c = r.connect()
+        arm_guided(r, c)
+        c.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0xFF8,
+                                                 30.0, 0.0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+        assert r.until(lambda: c.of("MISSION_ITEM_REACHED"), 60.0, 0.1)
+        command(c, M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        r.step()
+        assert c.acks()[-1].result == 0 and r.sim.mode == "RTL"
+        assert r.until(lambda: "Reached destination" in c.texts(), 60.0, 0.1)
+        r.run(3.0, 0.1)
+        assert math.hypot(r.sim.truth.x, r.sim.truth.y) < 4.0 and abs(r.sim.truth.surge) < 0.1
+    finally:
+        r.close()

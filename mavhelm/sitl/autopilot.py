@@ -517,8 +517,8 @@ class Autopilot:
         if not self.armed:
             return 0.0, 0.0, 0.0, 0.0
         steer, thr = self.steering, self.throttle
-        # steering has priority over throttle when the sum saturates (MOT_STR_THR_MIX)
-        if abs(steer) + abs(thr) > 1.0:
+        # skid steering: steering has priority over throttle when the sum saturates
+        if self.skid and abs(steer) + abs(thr) > 1.0:
             thr = math.copysign(max(0.0, 1.0 - abs(steer)), thr)
         return steer, thr, _clamp(thr + steer, -1, 1), _clamp(thr - steer, -1, 1)
 

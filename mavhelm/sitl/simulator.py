@@ -35,7 +35,7 @@ STREAMS: dict[int, tuple[int, ...]] = {
     M.MAV_DATA_STREAM_EXTENDED_STATUS: (
         M.MAVLINK_MSG_ID_SYS_STATUS, M.MAVLINK_MSG_ID_POWER_STATUS, M.MAVLINK_MSG_ID_MEMINFO,
         M.MAVLINK_MSG_ID_MISSION_CURRENT, M.MAVLINK_MSG_ID_GPS_RAW_INT,
-        M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT),
+        M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT),
     M.MAV_DATA_STREAM_POSITION: (M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
                                  M.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
     M.MAV_DATA_STREAM_RC_CHANNELS: (M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
@@ -139,6 +139,7 @@ class Simulator:
         self._est_y = 0.0
         self._compass_bias = 0.0
         self._ever_fix = False
+        self._origin_sent = False
         self._last_loc = (0, 0)
         self.hub = LinkHub(ports, host, udp_out, srcSystem=self._sysid, srcComponent=1,
                            scenario=scenario)
@@ -408,6 +409,11 @@ class Simulator:
 
     def _drain_outbox(self, now: float) -> None:
         out = self.autopilot.out
+        if not self._origin_sent and self.autopilot.ekf_origin is not None:
+            # like ArduPilot, announce the new EKF origin and home on every link
+            self._origin_sent = True
+            self._broadcast(self._build(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, now))
+            self._broadcast(self._build(M.MAVLINK_MSG_ID_HOME_POSITION, now))
         if out.heartbeat:
             out.heartbeat = False
             self._broadcast(self._build(HEARTBEAT, now))

@@ -1,0 +1,160 @@
+"""The MAVLink bridge over a real serial line (a pseudo-terminal, opened by pymavlink/pyserial
+exactly as ``/dev/ttyAMA0`` would be), with an autopilot written byte by byte on the other end.
+
+Pins down the conversions (origin, units, yaw sign), the online rule, and that garbage bytes and
+corrupted packets are counted and skipped without losing the good packets around them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tty
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.companion.bus import Bus
+from mavhelm.companion.clock import SimClock
+from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.geo import Origin
+
+ORIGIN = Origin(56.4120, -5.4760)
+
+
+class FakeAutopilot:
+    """Writes ArduPilot-shaped packets into the master side of a pty."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.parser = mavlink.MAVLink(None)
+
+    def send(self, msg) -> bytes:
+        data = msg.pack(self.mav)
+        os.write(self.fd, data)
+        return data
+
+    def heartbeat(self, custom_mode: int, armed: bool) -> None:
+        base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (
+            mavlink.MAV_MODE_FLAG_SAFETY_ARMED if armed else 0)
+        self.send(mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
+            custom_mode, mavlink.MAV_STATE_ACTIVE, 3))
+
+    def read(self) -> list:
+        try:
+            data = os.read(self.fd, 65536)
+        except BlockingIOError:
+            return []
+        return [m for m in self.parser.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
+
+
+@pytest.fixture
+def serial_link():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    os.set_blocking(master, False)
+    path = os.ttyname(slave)
+    clock = SimClock(100.0)
+    bus = Bus(clock)
+    bridge = MavlinkBridge(bus, BridgeConfig(connect=path, baud=115200), ORIGIN)
+    bus.subscribe("test", ["*"])
+    yield FakeAutopilot(master), bridge, bus, clock
+    bridge.close()
+    os.close(master)
+    os.close(slave)
+
+
+def tick(bridge: MavlinkBridge, bus: Bus, clock: SimClock, dt: float = 0.1) -> dict:
+    now = clock.advance(dt)
+    bridge.receive(now)
+    bridge.send([], now)
+    return {m.name: m.value for m in bus.fetch("test")}
+
+
+def test_serial_autopilot_becomes_variables(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.heartbeat(15, armed=True)
+    lat, lon = ORIGIN.to_global(30.0, -40.0)
+    ap.send(mavlink.MAVLink_gps_raw_int_message(
+        0, mavlink.GPS_FIX_TYPE_3D_FIX, int(lat * 1e7), int(lon * 1e7), 0, 80, 65535, 150,
+        27000, 12))
+    ap.send(mavlink.MAVLink_attitude_message(0, 0.01, -0.02, math.radians(270.0), 0, 0, 0.1))
+    got = tick(bridge, bus, clock)
+    assert got["GPS_X"] == pytest.approx(30.0, abs=0.02)
+    assert got["GPS_Y"] == pytest.approx(-40.0, abs=0.02)
+    assert got["GPS_SPEED"] == pytest.approx(1.5)
+    assert got["GPS_HEADING"] == pytest.approx(270.0)
+    assert got["INS_HEADING"] == pytest.approx(270.0)
+    assert got["INS_YAW"] == pytest.approx(-math.radians(270.0)), "MOOS yaw = -heading"
+    assert got["INS_YAW_VEL"] == pytest.approx(-0.1)
+    assert got["AP_MODE"] == "GUIDED" and got["HELM_ONLINE"] == 1.0
+    # the bridge introduced itself and asked for its streams over the same line
+    sent = ap.read()
+    heartbeats = [m for m in sent if m.get_type() == "HEARTBEAT"]
+    assert heartbeats and heartbeats[0].get_srcComponent() == 191
+    assert heartbeats[0].autopilot == mavlink.MAV_AUTOPILOT_INVALID
+    intervals = {int(m.param1): m.param2 for m in sent if m.get_type() == "COMMAND_LONG"
+                 and m.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL}
+    assert intervals[mavlink.MAVLINK_MSG_ID_GPS_RAW_INT] == 200000
+    assert intervals[mavlink.MAVLINK_MSG_ID_ATTITUDE] == 100000
+
+
+def test_no_fix_means_no_position(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.send(mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_FIX, 0, 0, 0, 65535,
+                                                65535, 65535, 65535, 0))
+    got = tick(bridge, bus, clock)
+    assert got["GPS_FIX"] == 1.0
+    assert "GPS_X" not in got
+
+
+def test_garbage_and_corrupt_packets_are_counted_and_skipped(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.heartbeat(15, armed=True)
+    tick(bridge, bus, clock)
+    os.write(ap.fd, b"\x00garbage\xff\xfe NMEA? $GPGGA,,,*00\r\n")
+    good = mavlink.MAVLink_attitude_message(0, 0, 0, math.radians(45.0), 0, 0, 0)
+    data = bytearray(good.pack(ap.mav))
+    data[12] ^= 0xFF  # corrupt the payload: the CRC no longer matches
+    os.write(ap.fd, bytes(data))
+    ap.send(mavlink.MAVLink_attitude_message(0, 0, 0, math.radians(90.0), 0, 0, 0))
+    got = tick(bridge, bus, clock)
+    assert got["MAVLINK_BAD_PACKETS"] >= 1
+    assert got["INS_HEADING"] == pytest.approx(90.0), "the good packet after the bad ones"
+    assert bridge.packets >= 2
+
+
+def test_offline_modes_and_disarmed_send_no_actuation(serial_link):
+    ap, bridge, bus, clock = serial_link
+    for mode, armed in ((0, True), (15, False), (4, True)):
+        ap.heartbeat(mode, armed)
+        tick(bridge, bus, clock)
+        assert not bridge.online
+        bridge.send([bus.notify("DESIRED_RUDDER", 10.0, "pHelm"),
+                     bus.notify("DESIRED_THRUST", 50.0, "pHelm")], clock.now())
+        assert not [m for m in ap.read() if m.get_type() == "SET_ATTITUDE_TARGET"]
+    ap.heartbeat(15, True)
+    tick(bridge, bus, clock)
+    assert bridge.online
+    bridge.send([bus.notify("DESIRED_RUDDER", 10.0, "pHelm"),
+                 bus.notify("DESIRED_THRUST", 50.0, "pHelm")], clock.now())
+    targets = [m for m in ap.read() if m.get_type() == "SET_ATTITUDE_TARGET"]
+    assert len(targets) == 1
+    assert targets[0].type_mask == 0x03
+    assert targets[0].thrust == pytest.approx(0.5)
+    assert targets[0].body_yaw_rate == pytest.approx(math.radians(10.0 / 20.0 * 45.0))
+
+
+def test_heartbeat_silence_takes_the_link_down(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.heartbeat(15, True)
+    tick(bridge, bus, clock)
+    assert bridge.online
+    for _ in range(40):
+        got = tick(bridge, bus, clock)
+        if "AP_LINK" in got:
+            break
+    assert got["AP_LINK"] == 0.0 and got["HELM_ONLINE"] == 0.0
+    assert clock.now() - bridge.last_heartbeat == pytest.approx(3.1, abs=0.06)
