@@ -52,11 +52,16 @@ ProcessConfig = pHelm
 """
 
 
-def start(x_queue: str, scenario: str) -> SimulatedRun:
+def start(x_queue: str, scenario: str, params: dict[str, float] | None = None) -> SimulatedRun:
     mission = parse_mission(MISSION.format(x_queue=x_queue), "safety.moos")
     return SimulatedRun.start(mission, fast_start=True,
                               scenario=Scenario.from_text(scenario, "safety.scn"),
-                              record={"NAV_Y_SOURCE"})
+                              record={"NAV_Y_SOURCE"}, params=params)
+
+
+# The autopilot's own EKF failsafe (FS_EKF_ACTION = 1, HOLD) would take the vehicle away from the
+# helm ~10 s after it loses position; switched off, only the helm's starvation rule is left.
+NO_EKF_FAILSAFE = {"FS_EKF_ACTION": 0.0}
 
 
 def actuation_between(run: SimulatedRun, t0: float, t1: float) -> list:
@@ -65,7 +70,7 @@ def actuation_between(run: SimulatedRun, t0: float, t1: float) -> list:
 
 
 def test_gps_loss_with_no_other_source_starves_the_motion_task():
-    with start("GPS @ 2.0", "seed = 1\ngps_outage from 40 to 400\n") as run:
+    with start("GPS @ 2.0", "seed = 1\ngps_outage from 40 to 400\n", NO_EKF_FAILSAFE) as run:
         run.hand_over()
         assert run.run_until(lambda _n: run.mission_ended(), 120.0)
         last_fix = max(m.time for m in run.values("NAV_X"))
@@ -106,7 +111,8 @@ def test_gps_loss_falls_back_to_the_autopilot_estimate_and_pops_back():
 
 def test_long_gps_loss_exhausts_the_fallback_and_starves():
     """The autopilot's EKF dead-reckons only for a while; then no source is left at all."""
-    with start("GPS @ 2.0, AP @ 2.0", "seed = 4\ngps_outage from 40 to 400\n") as run:
+    with start("GPS @ 2.0, AP @ 2.0", "seed = 4\ngps_outage from 40 to 400\n",
+               NO_EKF_FAILSAFE) as run:
         run.hand_over()
         assert run.run_until(lambda _n: run.mission_ended(), 120.0)
         sources = nav_sources(run)
@@ -115,6 +121,19 @@ def test_long_gps_loss_exhausts_the_fallback_and_starves():
         ended = [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway:")]
         assert ended[0].string == "FarAway:starved"
         assert none_at + 7.5 <= ended[0].time <= none_at + 8.5 + 0.25
+
+
+def test_long_gps_loss_with_ekf_failsafe_hands_the_vehicle_to_hold():
+    """ArduPilot's default EKF failsafe switches to HOLD; the helm sees the mode and stops."""
+    with start("GPS @ 2.0, AP @ 2.0", "seed = 4\ngps_outage from 40 to 400\n") as run:
+        run.hand_over()
+        run.run_until(lambda n: n >= 80.0, 120.0)
+        hold = [m.time for m in run.values("AP_MODE") if m.string == "HOLD"]
+        assert hold, "the autopilot's EKF failsafe should have switched to HOLD"
+        assert any("EKF failsafe" in m.string for m in run.values("AP_STATUSTEXT"))
+        offline = [m.time for m in run.values("HELM_ONLINE") if m.double == 0.0]
+        assert offline and offline[0] == hold[0]
+        assert not actuation_between(run, hold[0], 80.0)
 
 
 def test_link_loss_puts_the_helm_offline_and_it_reengages_only_in_guided():

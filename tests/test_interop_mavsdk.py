@@ -8,12 +8,14 @@ plugin for position/flight mode/armed, Action for arm/hold/disarm/goto_location 
 MAVSDK has no "set flight mode" for ArduPilot's Rover modes, a COMMAND_LONG
 MAV_CMD_DO_SET_MODE through MavlinkDirect for GUIDED.
 
-MAVSDK names ArduPilot Rover modes with its own (PX4-flavoured) FlightMode enum: MANUAL → MANUAL,
-HOLD → HOLD, GUIDED → OFFBOARD, AUTO → MISSION, RTL and SMART_RTL → RETURN_TO_LAUNCH.
+MAVSDK names ArduPilot Rover modes with its own (PX4-flavoured) FlightMode enum, as measured
+here: MANUAL → MANUAL, ACRO → ACRO, HOLD → HOLD, FOLLOW → FOLLOW_ME, RTL → RETURN_TO_LAUNCH,
+GUIDED → OFFBOARD; STEERING, LOITER, SIMPLE and SMART_RTL → UNKNOWN.
 
-The simulator runs in this process on the wall clock (a stepping thread), so each step can be
-checked against its truth: the position MAVSDK reports against the vehicle's true position,
-arming and modes against ``sim.armed`` / ``sim.mode``.
+Most tests run the simulator in this process on the wall clock (a stepping thread), so each step
+can be checked against its truth: the position MAVSDK reports against the vehicle's true
+position, arming and modes against ``sim.armed`` / ``sim.mode``. One runs the real
+``mavhelm sim`` command and checks through a companion link instead.
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ import math
 import time
 
 import pytest
-from interop_helpers import RealtimeSim, wait_until
+from interop_helpers import Companion, RealtimeSim, SimProcess, armed, wait_until
+from pymavlink import mavutil
 
 from mavhelm.geo import Origin
 
@@ -153,16 +156,18 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
             p = c.telemetry.position()
             return p if math.isfinite(p.latitude_deg) and p.latitude_deg != 0.0 else None
 
-        pos = wait_until(fix, 10, "a position from MAVSDK", c.telemetry.position)
+        wait_until(fix, 10, "a position from MAVSDK", c.telemetry.position)
         time.sleep(1.2)  # a fresh GLOBAL_POSITION_INT, sent after the EKF position is good
         pos = c.telemetry.position()
         with rs.lock:
             true_lat, true_lon = HOME.to_global(rs.sim.truth.x, rs.sim.truth.y)
             est_lat, est_lon = HOME.to_global(rs.sim.autopilot.est.x, rs.sim.autopilot.est.y)
-        assert abs(pos.latitude_deg - true_lat) < 2e-5, (pos, true_lat, true_lon)
-        assert abs(pos.longitude_deg - true_lon) < 3e-5, (pos, true_lat, true_lon)
-        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, true_lat, true_lon) < 2.0
-        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, est_lat, est_lon) < 0.5
+        where = f"MAVSDK {pos}; truth {true_lat:.7f}, {true_lon:.7f}"
+        assert abs(pos.latitude_deg - true_lat) < 2e-5, where  # ~2 m north
+        assert abs(pos.longitude_deg - true_lon) < 3e-5, where  # ~2 m east at 47.4 deg
+        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, true_lat, true_lon) < 2.0, where
+        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, est_lat, est_lon) < 0.5, (
+            f"MAVSDK {pos}; autopilot estimate {est_lat:.7f}, {est_lon:.7f}")
         heading = c.telemetry.heading().heading_deg
         assert abs((heading - 30.0 + 180.0) % 360.0 - 180.0) < 2.0, heading
 
@@ -231,3 +236,36 @@ def test_mavsdk_goto_location_drives_the_rover_and_its_position_follows(client_o
         c.action.hold()
         assert rs.sim.mode == "HOLD"
         rs.check()
+
+
+def test_mavsdk_against_the_mavhelm_sim_command(client_on):
+    """The same client against the real ``mavhelm sim`` command, checked by a companion link."""
+    _import_mavsdk()
+    with SimProcess("--fast-start", "--vehicle", "rover", "--home",
+                    f"{HOME.lat},{HOME.lon},0") as sim, Companion(sim.ports[0]) as companion:
+        c = client_on(sim.ports[1])
+        assert c.system.autopilot_type() == c.Autopilot.ARDUPILOT
+        assert c.system.vehicle_type() == c.Vehicle.ROVER
+        companion.wait_for("EKF_STATUS_REPORT",
+                           lambda m: m.flags & mavutil.mavlink.EKF_POS_HORIZ_ABS, 10,
+                           "the EKF to report an absolute horizontal position")
+        wait_until(lambda: c.telemetry.flight_mode() == c.FlightMode.MANUAL, 5,
+                   "MAVSDK flight_mode MANUAL", c.telemetry.flight_mode)
+        time.sleep(1.2)
+        pos = c.telemetry.position()
+        gpi = companion.wait_for("GLOBAL_POSITION_INT", lambda m: m.lat != 0, 3,
+                                 "a GLOBAL_POSITION_INT with a position")
+        # the rover sits at --home; both links report it within GPS noise
+        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, HOME.lat, HOME.lon) < 2.0, pos
+        assert _metres_apart(pos.latitude_deg, pos.longitude_deg, gpi.lat / 1e7,
+                             gpi.lon / 1e7) < 0.5, (str(pos), gpi)
+
+        c.action.arm()
+        companion.wait_for("HEARTBEAT", armed, 5, "an armed HEARTBEAT")
+        ack = c.set_custom_mode(GUIDED)
+        assert ack["result"] == MAV_RESULT_ACCEPTED, ack
+        hb = companion.wait_for("HEARTBEAT", lambda m: m.custom_mode == GUIDED, 5,
+                                "HEARTBEAT custom_mode 15 (GUIDED)")
+        assert armed(hb)
+        wait_until(lambda: c.telemetry.flight_mode() == c.FlightMode.OFFBOARD, 5,
+                   "MAVSDK flight_mode OFFBOARD", c.telemetry.flight_mode)

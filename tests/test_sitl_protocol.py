@@ -216,6 +216,16 @@ def test_request_message_simstate_is_ground_truth(rig):
     command(c, M.MAV_CMD_GET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_ATTITUDE)
     rig.step()
     assert c.last("MESSAGE_INTERVAL").interval_us == 1_000_000
+    command(c, M.MAV_CMD_REQUEST_MESSAGE, 12345)
+    command(c, M.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100_000)
+    rig.step()
+    assert [a.result for a in c.acks()[-2:]] == [M.MAV_RESULT_FAILED] * 2
+    assert "No ap_message for mavlink id (12345)" in c.texts()
+    command(c, M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_ATTITUDE, -1)
+    rig.step()
+    c.msgs.clear()
+    rig.run(2.0)
+    assert not c.of("ATTITUDE") and c.of("GLOBAL_POSITION_INT")
 
 
 def test_boat_reports_depth_rover_reports_wheels():
@@ -451,5 +461,53 @@ def test_rtl_brings_the_rover_home():
         assert r.until(lambda: "Reached destination" in c.texts(), 60.0, 0.1)
         r.run(3.0, 0.1)
         assert math.hypot(r.sim.truth.x, r.sim.truth.y) < 4.0 and abs(r.sim.truth.surge) < 0.1
+    finally:
+        r.close()
+
+
+def test_long_gps_outage_in_guided_trips_the_ekf_failsafe():
+    sc = FakeScenario([FakeFault("gps_outage", 10.0, 40.0, {})])
+    r = Rig(scenario=sc, ports=(0,))
+    try:
+        c = r.connect()
+        arm_guided(r, c)
+        r.run(16.0, 0.1)  # 6 s into the outage: still dead reckoning
+        assert r.sim.mode == "GUIDED"
+        r.run(6.0, 0.1)  # 10 s of dead reckoning + ~1 s of ekf_check
+        assert r.sim.mode == "HOLD" and "EKF failsafe" in c.texts()
+        command(c, M.MAV_CMD_DO_SET_MODE, 1, 15)
+        r.step()
+        assert c.acks()[-1].result == M.MAV_RESULT_FAILED
+        r.run(20.0, 0.1)
+        assert "EKF failsafe cleared" in c.texts()
+        command(c, M.MAV_CMD_DO_SET_MODE, 1, 15)
+        r.step()
+        assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED
+    finally:
+        r.close()
+
+
+def test_a_real_scenario_file_with_every_mavlink_fault_kind():
+    from mavhelm.sitl.faults import Scenario
+
+    sc = Scenario.from_text("""seed = 5
+gps_outage from 5 to 8
+gps_jump at 10 dx=20 dy=5
+gps_outlier from 12 to 20 prob=0.2 sigma=10
+compass_bias from 3 to 30 deg=5
+sensor_latency from 0 sensor=gps delay=0.3 jitter=0.1
+link_stall from 2 to 3 link=1
+link_garbage from 4 to 6 prob=0.1
+link_duplicate from 6 to 8 prob=0.1
+link_reorder from 8 to 10 prob=0.2 link=0
+link_drop from 11 to 12
+""")
+    r = Rig(scenario=sc)
+    try:
+        a, b = r.connect(0), r.connect(1)
+        r.run(25.0)
+        for c in (a, b):
+            assert c.link.bytes_sent == c.mav.total_bytes_received
+            assert len(c.of("HEARTBEAT")) >= 22
     finally:
         r.close()

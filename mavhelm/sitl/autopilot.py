@@ -92,24 +92,29 @@ def default_params(boat: bool, skid: bool) -> dict[str, float]:
     p: dict[str, float] = {
         "SYSID_THISMAV": 1, "MAV_GCS_SYSID": 255, "RC_OVERRIDE_TIME": 3.0,
         "WP_SPEED": 2.0, "WP_RADIUS": 2.0, "WP_ACCEL": 0.0, "RTL_SPEED": 0.0,
-        "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 50.0, "SPEED_MAX": 0.0,
+        "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 40.0 if boat else 50.0, "SPEED_MAX": 0.0,
         "LOIT_RADIUS": 2.0, "LOIT_SPEED_GAIN": 0.5, "ACRO_TURN_RATE": 180.0,
         "FS_GCS_ENABLE": 0, "FS_GCS_TIMEOUT": 5.0, "FS_ACTION": 2, "FS_TIMEOUT": 1.5,
-        "FS_OPTIONS": 0, "FS_THR_ENABLE": 0,
+        "FS_OPTIONS": 0, "FS_THR_ENABLE": 0, "FS_EKF_ACTION": 1, "FS_EKF_THRESH": 0.8,
         "RCMAP_ROLL": 1, "RCMAP_PITCH": 2, "RCMAP_THROTTLE": 3, "RCMAP_YAW": 4,
         "FRAME_CLASS": 2 if boat else 1, "FRAME_TYPE": 0, "INITIAL_MODE": 0,
         "GUID_TIMEOUT": GUIDED_TIMEOUT, "GUID_OPTIONS": 0, "MIS_DONE_BEHAVE": 0,
         "ARMING_CHECK": 1, "ARMING_REQUIRE": 1, "PILOT_STEER_TYPE": 0,
         # controller gains are tuned for the simulator's models (Rover's defaults are generic)
         "ATC_STR_RAT_MAX": 120.0, "ATC_STR_ACC_MAX": 120.0,
-        "ATC_STR_ANG_P": 2.0, "ATC_STR_RAT_FF": 1.0 if boat else 0.6,
-        "ATC_STR_RAT_P": 0.4, "ATC_STR_RAT_I": 0.3, "ATC_STR_RAT_IMAX": 0.5,
-        "ATC_SPEED_P": 0.3, "ATC_SPEED_I": 0.3, "ATC_SPEED_IMAX": 0.5,
+        "ATC_STR_ANG_P": 2.0, "ATC_STR_RAT_IMAX": 0.5,
+        "ATC_SPEED_P": 0.8 if boat else 0.5, "ATC_SPEED_I": 0.6 if boat else 0.5,
+        "ATC_SPEED_IMAX": 0.5,
         "ATC_ACCEL_MAX": 1.0, "ATC_DECEL_MAX": 0.0, "ATC_STOP_SPEED": 0.1,
         "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5,
         "GPS_TYPE": 1, "GPS_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
         "SR0_POSITION": 1, "SR0_EXTRA1": 1, "SR0_EXTRA2": 1, "SR0_EXTRA3": 1,
     }
+    if boat and not skid:  # a rudder needs flow: more feed-forward and gain
+        p.update({"ATC_STR_RAT_FF": 1.8, "ATC_STR_RAT_P": 1.5, "ATC_STR_RAT_I": 0.8})
+    else:
+        p.update({"ATC_STR_RAT_FF": 0.5 if boat else 0.6, "ATC_STR_RAT_P": 1.0,
+                  "ATC_STR_RAT_I": 0.5})
     for i in range(1, 17):
         p[f"SERVO{i}_FUNCTION"] = FN_NONE
         p[f"SERVO{i}_MIN"] = 1100
@@ -205,6 +210,8 @@ class Autopilot:
         self.failsafe_bits = 0
         self.failsafe_start = 0.0
         self.failsafe_triggered = 0
+        self.ekf_failsafe = False
+        self._ekf_bad_time = 0.0
 
     # ------------------------------------------------------------------ start-up timeline
     def uptime(self, now: float) -> float:
@@ -213,14 +220,9 @@ class Autopilot:
     def arming_ready(self, now: float) -> bool:
         return self.uptime(now) >= self.timeline.arming
 
-    def ekf_has_origin(self, now: float) -> bool:
-        return self.ekf_origin is not None
-
-    def ekf_using_gps(self, now: float) -> bool:
-        return self.uptime(now) >= self.timeline.ekf_gps
-
     def position_ok(self) -> bool:
-        return self.est.position_ok
+        """Rover::position_ok: the EKF has a position and the EKF failsafe is not active."""
+        return self.est.position_ok and not self.ekf_failsafe
 
     def _text(self, severity: int, text: str) -> None:
         self.out.texts.append((severity, text))
@@ -460,6 +462,21 @@ class Autopilot:
             self.rc_override[i] = int(v)
             self.rc_override_time[i] = now
 
+    def manual_control_msg(self, sysid: int, y: int, z: int, now: float) -> None:
+        """MANUAL_CONTROL: from MAV_GCS_SYSID only; y steers, z throttles (-1000..1000, INT16_MAX
+        = no change), mapped onto the RCMAP channels as an override (GCS_MAVLINK::manual_override).
+        """
+        if sysid != int(self.params["MAV_GCS_SYSID"]):
+            return
+        for ch, value in ((int(self.params["RCMAP_ROLL"]), y),
+                          (int(self.params["RCMAP_THROTTLE"]), z)):
+            if value == 0x7FFF:
+                continue
+            lo = self.params.get(f"RC{ch}_MIN", 1100)
+            hi = self.params.get(f"RC{ch}_MAX", 1900)
+            self.rc_override[ch - 1] = int(lo + (hi - lo) * (value + 1000) / 2000.0)
+            self.rc_override_time[ch - 1] = now
+
     def rc_in(self, now: float) -> list[int]:
         """Effective RC input per channel (override while fresh, else the radio)."""
         timeout = self.params["RC_OVERRIDE_TIME"]
@@ -517,9 +534,17 @@ class Autopilot:
         if not self.armed:
             return 0.0, 0.0, 0.0, 0.0
         steer, thr = self.steering, self.throttle
-        # skid steering: steering has priority over throttle when the sum saturates
-        if self.skid and abs(steer) + abs(thr) > 1.0:
-            thr = math.copysign(max(0.0, 1.0 - abs(steer)), thr)
+        # skid steering saturation (AP_MotorsUGV): MOT_STR_THR_MIX 0.5 scales both fairly,
+        # 1.0 gives steering priority; throttle takes what steering leaves
+        sat = abs(steer) + abs(thr)
+        if self.skid and sat > 1.0:
+            mix = _clamp(self.params.get("MOT_STR_THR_MIX", 0.5), 0.0, 1.0)
+            if mix >= 0.5:
+                steer *= 1.0 / sat + (1.0 - 1.0 / sat) * (mix - 0.5) / 0.5
+                thr = math.copysign(max(0.0, 1.0 - abs(steer)), thr)
+            else:
+                thr *= 1.0 / sat + (1.0 - 1.0 / sat) * (0.5 - mix) / 0.5
+                steer = math.copysign(max(0.0, 1.0 - abs(thr)), steer)
         return steer, thr, _clamp(thr + steer, -1, 1), _clamp(thr - steer, -1, 1)
 
     def servo_map(self) -> list[tuple[int, int, float, float, float, bool]]:
@@ -595,11 +620,33 @@ class Autopilot:
                 return
             self.set_mode(HOLD, now)
 
+    def _ekf_check(self, now: float, dt: float) -> None:
+        """Rover's ekf_check: ~1 s without a usable position while armed → EKF failsafe
+        (FS_EKF_ACTION 1: HOLD if the mode needs position; 2: report only; 0: off)."""
+        if not self.armed or self.params.get("FS_EKF_THRESH", 0.8) <= 0:
+            self._ekf_bad_time = 0.0
+            if self.ekf_failsafe and not self.armed:
+                self.ekf_failsafe = False
+            return
+        bad = not self.est.position_ok
+        self._ekf_bad_time = _clamp(self._ekf_bad_time + (dt if bad else -dt), 0.0, 1.0)
+        if bad and not self.ekf_failsafe and self._ekf_bad_time >= 1.0:
+            self.ekf_failsafe = True
+            action = int(self.params.get("FS_EKF_ACTION", 1))
+            if self.mode in _NEEDS_POSITION and action != 0:
+                if action == 1:
+                    self.set_mode(HOLD, now)
+                self._text(SEVERITY_CRITICAL, "EKF failsafe")
+        elif not bad and self.ekf_failsafe and self._ekf_bad_time <= 0.0:
+            self.ekf_failsafe = False
+            self._text(SEVERITY_CRITICAL, "EKF failsafe cleared")
+
     # ------------------------------------------------------------------ control loop
     def update(self, now: float, dt: float) -> None:
         """One control-loop pass: timeline, failsafes, then the mode's controllers."""
         self.update_timeline(now)
         self._failsafe_check(now)
+        self._ekf_check(now, dt)
         if not self.armed:
             self.steering = 0.0
             self.throttle = 0.0

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.mavlink_bridge import read_available
+
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER
 ROVER_MODE_NUMBERS = {name: number for number, name in mavutil.mode_mapping_rover.items()}
@@ -41,7 +43,7 @@ class GroundStation:
             self._next_heartbeat = now + 1.0
             self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
                                          0, 0, mavlink.MAV_STATE_ACTIVE)
-        while (msg := self.conn.recv_msg()) is not None:
+        for msg in read_available(self.conn):
             self._handle(msg, now)
 
     def _handle(self, msg, now: float) -> None:

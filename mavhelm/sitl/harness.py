@@ -44,6 +44,7 @@ class SimulatedRun:
     wall_seconds: float = 0.0
     companion_tick_seconds: list[float] = field(default_factory=list)
     before_companion: Callable[[float], None] | None = None
+    ended_at: float | None = None
 
     @classmethod
     def start(cls, mission: Mission | str | Path, *, vehicle: str = "boat",
@@ -75,8 +76,11 @@ class SimulatedRun:
         t0 = time.perf_counter()
         self.companion.tick(now)
         self.companion_tick_seconds.append(time.perf_counter() - t0)
-        self.messages.extend(m for m in self.companion.bus.fetch("harness")
-                             if m.name in self.record or m.name.endswith("_ERROR"))
+        for m in self.companion.bus.fetch("harness"):
+            if m.name in self.record or m.name.endswith("_ERROR"):
+                self.messages.append(m)
+                if m.name == "MISSION_ENDED" and self.ended_at is None:
+                    self.ended_at = m.time
         self.track.append(self.sim.truth)
 
     def step(self) -> float:
@@ -111,7 +115,7 @@ class SimulatedRun:
         return [m for m in self.messages if m.name == name]
 
     def mission_ended(self) -> bool:
-        return any(m.name == "MISSION_ENDED" for m in self.messages)
+        return self.ended_at is not None
 
     def run_mission(self, max_time: float, linger: float = 5.0) -> bool:
         """Hand over, run until EndMission goes active (then ``linger`` more seconds)."""

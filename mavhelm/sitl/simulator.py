@@ -56,6 +56,10 @@ HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT
 _ORDER = [HEARTBEAT] + [m for s in STREAMS.values() for m in s]
 _ORDER_INDEX = {m: i for i, m in enumerate(_ORDER)}
 
+# Every message _build() knows (ArduPilot answers FAILED for ids it has no ap_message for).
+KNOWN = set(_ORDER) | {M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
+                       M.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
+
 GPS_NO_FIX_DOP = 9999  # a receiver without a fix reports DOP 99.99
 GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
 
@@ -99,7 +103,6 @@ class Simulator:
         self._t = self.boot
         self._n = 0  # sub-steps done: time is boot + n*DT exactly, no drift
         self.epoch = (EPOCH_BASE if self.boot < 1e9 else 0.0) if epoch is None else epoch
-        self.rng = np.random.default_rng(seed)
         self._scenario_rngs: dict[str, np.random.Generator] = {}
         self._gps_rng = np.random.default_rng([seed, 1])
         skid = self.variant == "skid"
@@ -131,12 +134,11 @@ class Simulator:
         self._gps_period = max(0.05, self.params.get("GPS_RATE_MS", 200) / 1000.0)
         self._next_gps = self.boot
         self._gps: _GpsSample | None = None
-        self._gps_history: deque[tuple[float, float, float, float, float]] = deque(maxlen=400)
+        # (t, x, y, vx, vy) of the last 10 s at 50 Hz, for GPS latency
+        self._gps_history: deque[tuple[float, float, float, float, float]] = deque(maxlen=500)
         self._gps_bias = [0.0, 0.0]
         self._last_fix_t: float | None = None
         self._glitch_since: float | None = None
-        self._est_x = 0.0
-        self._est_y = 0.0
         self._compass_bias = 0.0
         self._ever_fix = False
         self._origin_sent = False
@@ -638,8 +640,8 @@ class Simulator:
     def _nav_controller(self) -> Any:
         a = self.autopilot
         tgt = a.wp if a.mode in (ap.GUIDED, ap.RTL, ap.SMART_RTL) and a.wp else None
-        if tgt is None and a.mode in (ap.LOITER,) or (a.mode == ap.GUIDED
-                                                      and a.guided_sub == "loiter"):
+        loitering = a.mode == ap.LOITER or (a.mode == ap.GUIDED and a.guided_sub == "loiter")
+        if tgt is None and loitering:
             tgt = a.loiter_point
         if tgt is None:
             bearing = int(a.des_heading) if a.guided_sub == "heading" else 0
@@ -759,8 +761,12 @@ class Simulator:
         elif t == "MISSION_REQUEST_LIST":
             link.send(M.MAVLink_mission_count_message(src, msg.get_srcComponent(), 0,
                                                       getattr(msg, "mission_type", 0)))
-        elif t == "SYSTEM_TIME":
-            pass
+        elif t == "MANUAL_CONTROL":
+            if msg.target in (0, self._sysid):
+                a.manual_control_msg(src, msg.y, msg.z, now)
+        elif t == "TIMESYNC":
+            if msg.tc1 == 0:  # a request: answer with our clock, echoing theirs
+                link.send(M.MAVLink_timesync_message(int((now - self.boot) * 1e9), msg.ts1))
 
     def _request_data_stream(self, link: Link, msg: Any, now: float) -> None:
         rate = msg.req_message_rate if msg.start_stop else 0
@@ -794,12 +800,9 @@ class Simulator:
             result = a.do_set_servo(int(p[0]), int(p[1]))
         elif cmd == M.MAV_CMD_SET_MESSAGE_INTERVAL:
             mid, us = int(p[0]), p[1]
-            probe = self._build(mid, now) if mid not in self._defaults else True
-            if probe is None and mid not in _ORDER and mid not in (
-                    M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
-                    M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT):
+            if mid not in KNOWN:
                 a.out.texts.append((ap.SEVERITY_INFO, f"No ap_message for mavlink id ({mid})"))
-                result = ap.RESULT_DENIED
+                result = ap.RESULT_FAILED
             else:
                 if us < 0:
                     iv = 0.0
@@ -816,11 +819,11 @@ class Simulator:
             result = ap.RESULT_ACCEPTED
         elif cmd == M.MAV_CMD_REQUEST_MESSAGE:
             mid = int(p[0])
-            if mid == M.MAVLINK_MSG_ID_PARAM_VALUE:
-                result = ap.RESULT_DENIED
+            if mid in KNOWN:
+                after = self._build(mid, now)  # may be None: nothing to say yet
+                result = ap.RESULT_ACCEPTED
             else:
-                after = self._build(mid, now)
-                result = ap.RESULT_ACCEPTED if after is not None else ap.RESULT_DENIED
+                result = ap.RESULT_FAILED
         elif cmd == M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
             after = self._build(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, now)
             result = ap.RESULT_ACCEPTED
