@@ -94,10 +94,11 @@ def main() -> None:
                     windows.append((started[f"Leg{i}"], CORNERS[(i - 1) % 4], CORNERS[i % 4]))
 
             def leg_at(t: float):
+                """The leg being driven at t, or None during the first 15 s (the turn onto it)."""
                 current = None
                 for when, a, b in windows:
-                    if when + 15.0 <= t:  # skip the turn onto each leg
-                        current = (a, b)
+                    if when <= t:
+                        current = (a, b) if t >= when + 15.0 else None
                 return current
 
             xte = cross_track(run.track, leg_at)

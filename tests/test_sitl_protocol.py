@@ -511,3 +511,19 @@ link_drop from 11 to 12
             assert len(c.of("HEARTBEAT")) >= 22
     finally:
         r.close()
+
+
+def test_manual_control_drives_manual_like_an_override_and_timesync_answers(rig):
+    g = rig.connect()
+    rig.run(3.0)
+    command(g, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    rig.step()
+    for _ in range(30):
+        g.mav.manual_control_send(1, 0, 0, 1000, 0, 0)  # x, y (steer), z (throttle), r
+        rig.step(0.1)
+    assert g.last("RC_CHANNELS").chan3_raw == 1900
+    assert rig.sim.truth.surge > 2.0
+    g.mav.timesync_send(0, 123456789)
+    rig.step()
+    ts = g.last("TIMESYNC")
+    assert ts.ts1 == 123456789 and ts.tc1 > 0

@@ -196,6 +196,7 @@ class Autopilot:
         self.wp: tuple[float, float] | None = None
         self.wp_notify = False
         self.loiter_point: tuple[float, float] | None = None
+        self.guided_speed: float | None = None  # DO_CHANGE_SPEED / DO_REPOSITION, until exit
         # controllers
         self._rate_pid = _Pid()
         self._speed_pid = _Pid()
@@ -300,6 +301,7 @@ class Autopilot:
         self._speed_pid.reset()
         self._speed_target = self.est.forward_speed
         self._rate_target = self.est.yaw_rate
+        self.guided_speed = None
         if number == GUIDED:
             self.have_att_target = False
             self.wp = None
@@ -434,7 +436,7 @@ class Autopilot:
         if self.mode != GUIDED and not self.set_mode(GUIDED, now):
             return RESULT_FAILED
         if speed > 0:
-            self.params["WP_SPEED"] = speed
+            self.guided_speed = speed
         self.wp = (x, y)
         self.wp_notify = True
         self.guided_sub = "wp"
@@ -718,7 +720,7 @@ class Autopilot:
                 self.guided_sub = "stop"
                 self._stop(dt)
         elif sub == "wp" and self.wp is not None:
-            if self._navigate(self.wp, self.params["WP_SPEED"], dt):
+            if self._navigate(self.wp, self.guided_speed or self.params["WP_SPEED"], dt):
                 if self.wp_notify:
                     self.wp_notify = False
                     self.out.reached.append(0)

@@ -187,6 +187,9 @@ class Simulator:
     def step(self, now: float) -> None:
         """service(now), physics up to now, due telemetry, then the serial sensors."""
         self.service(now)
+        # compass bias is looked up once per step (a fault window is never shorter than a tick)
+        self._compass_bias = sum(float(f.params.get("deg", 0.0))
+                                 for f in self._faults("compass_bias", now))
         while self.boot + (self._n + 1) * DT <= now + 1e-9:
             self._n += 1
             self._substep(self.boot + self._n * DT)
@@ -340,15 +343,14 @@ class Simulator:
         a = self.autopilot
         est = a.est
         st = self._state
-        bias = 0.0
-        for f in self._faults("compass_bias", t):
-            bias += float(f.params.get("deg", 0.0))
-        self._compass_bias = bias
+        bias = self._compass_bias
         true_hdg = math.degrees(st.heading)
         est.heading = (true_hdg + bias) % 360.0
         est.yaw_rate = math.degrees(st.r)
         g = self._gps
         fresh = g is not None and g.fix >= 3 and g.t == t
+        dr_limit = self.params.get("SIM_EKF_DR_TIME", 10.0)
+        was_lost = self._last_fix_t is None or t - self._last_fix_t >= dr_limit
         if g is not None and g.fix >= 3:
             self._last_fix_t = g.t
         up = t - self.boot
@@ -376,7 +378,11 @@ class Simulator:
         est.y += est.vy * dt
         if fresh and g is not None:
             ix, iy = g.x - est.x, g.y - est.y
-            if math.hypot(ix, iy) > 10.0:
+            if was_lost:
+                # the filter had given up on position: it resets onto the first new fix
+                est.x, est.y = g.x, g.y
+                self._glitch_since = None
+            elif math.hypot(ix, iy) > 10.0:
                 # innovation gate: a glitching GPS is ignored, then the EKF resets onto it
                 if self._glitch_since is None:
                     self._glitch_since = t
@@ -387,7 +393,6 @@ class Simulator:
                 self._glitch_since = None
                 est.x += 0.3 * ix
                 est.y += 0.3 * iy
-        dr_limit = self.params.get("SIM_EKF_DR_TIME", 10.0)
         dr_ok = self._last_fix_t is not None and t - self._last_fix_t < dr_limit
         est.position_ok = using_gps and dr_ok
 
@@ -692,7 +697,7 @@ class Simulator:
     def _forward(self, link: Link, msg: Any) -> None:
         """MAVLink routing: broadcasts go to every other link; targeted ones to where the
         target system was seen."""
-        ts = getattr(msg, "target_system", None)
+        ts = getattr(msg, "target_system", getattr(msg, "target", None))
         tc = getattr(msg, "target_component", 0)
         raw = None
         for other in self.hub.links:
@@ -833,7 +838,7 @@ class Simulator:
             result = ap.RESULT_ACCEPTED if a.set_mode(ap.AUTO, now) else ap.RESULT_FAILED
         elif cmd == M.MAV_CMD_DO_CHANGE_SPEED:
             if a.mode == ap.GUIDED and a.guided_sub in ("wp", "loiter") and p[1] > 0:
-                a.params["WP_SPEED"] = float(p[1])
+                a.guided_speed = float(p[1])
                 result = ap.RESULT_ACCEPTED
             else:
                 result = ap.RESULT_FAILED
