@@ -128,7 +128,7 @@ def test_errors_name_file_and_line(line: str, reason: str) -> None:
         Scenario.from_text(text, name="storm.scn")
     assert str(exc.value).startswith("storm.scn:3: "), str(exc.value)
     assert reason in str(exc.value)
-    assert exc.value.line == 3 and exc.value.source == "storm.scn"
+    assert exc.value.line == 3 and exc.value.file == "storm.scn"
 
 
 def test_duplicate_seed_and_file_errors(tmp_path: Path) -> None:

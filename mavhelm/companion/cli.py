@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from mavhelm.companion.mission import MissionError
+from mavhelm.errors import LocatedError
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except MissionError as exc:
+    except LocatedError as exc:
         print(f"mavhelm: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

@@ -10,15 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mavhelm.errors import LocatedError
 
-class MissionError(Exception):
-    """A mission that cannot be run: says file, line and what was expected, on one line."""
 
-    def __init__(self, file: str, line: int, reason: str) -> None:
-        super().__init__(f"{file}:{line}: {reason}")
-        self.file = file
-        self.line = line
-        self.reason = reason
+class MissionError(LocatedError):
+    """A mission that cannot be run."""
 
 
 @dataclass(frozen=True)

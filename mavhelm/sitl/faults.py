@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mavhelm.errors import LocatedError
+
 #: Length of the window of an instant fault written ``at T`` with no ``for D``.
 INSTANT_S = 1.0
 
@@ -98,14 +100,8 @@ FAULT_KINDS: dict[str, FaultKind] = {
 }
 
 
-class ScenarioError(ValueError):
-    """A scenario file is wrong; the message is ``file:line: reason`` like a compiler's."""
-
-    def __init__(self, source: str, line: int, reason: str) -> None:
-        super().__init__(f"{source}:{line}: {reason}")
-        self.source = source
-        self.line = line
-        self.reason = reason
+class ScenarioError(LocatedError):
+    """A scenario file is wrong."""
 
 
 @dataclass(frozen=True)
