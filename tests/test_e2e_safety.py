@@ -77,7 +77,12 @@ def test_gps_loss_with_no_other_source_starves_the_motion_task():
         assert 39.0 <= last_fix <= 41.0, "NAV_X must stop when GPS stops"
         sources = [(m.time, m.string) for m in run.values("NAV_X_SOURCE")]
         assert sources[-1][1] == "NONE"
-        assert last_fix + 2.0 <= sources[-1][0] <= last_fix + 2.0 + 0.25
+        lost_at = sources[-1][0]
+        assert last_fix + 2.0 <= lost_at <= last_fix + 2.0 + 0.25
+        thrust = [(m.time, m.double) for m in run.values("DESIRED_THRUST")]
+        before = [v for t, v in thrust if lost_at - 1.0 <= t < lost_at]
+        assert len(before) >= 9 and set(before) == {60.0}, "driving until the loss"
+        assert all(v == 0.0 for t, v in thrust if t >= lost_at), "stop in the declaring tick"
         ended = [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway:")]
         assert ended and ended[0].string == "FarAway:starved"
         assert last_fix + 9.5 <= ended[0].time <= last_fix + 10.5
@@ -106,7 +111,8 @@ def test_gps_loss_falls_back_to_the_autopilot_estimate_and_pops_back():
         assert last_gps + 2.0 <= fell_back <= last_gps + 2.0 + 0.25
         assert 48.0 <= popped <= 49.5
         assert not [m for m in run.values("TASK_ENDED") if m.string.startswith("FarAway")]
-        assert actuation_between(run, 42.0, 48.0), "the helm should keep driving on the fallback"
+        driving = [m.double for m in run.values("DESIRED_THRUST") if 42.0 <= m.time < 48.0]
+        assert driving and all(v == 60.0 for v in driving), "keep driving on the fallback"
 
 
 def test_long_gps_loss_exhausts_the_fallback_and_starves():

@@ -512,3 +512,37 @@ def test_auxiliary_actuator_is_posted_and_zeroed_by_end_mission(
     assert one(out, "MISSION_ENDED") == "Stop"
     assert one(out, "DESIRED_PUMP") == 0.0, "EndMission locks the pump out in the same tick"
     assert one(rig.tick(), "DESIRED_PUMP") == 0.0
+
+
+def test_declared_navigation_loss_stops_actuation_in_the_same_tick_then_starves():
+    """pNav's NAV_X_SOURCE = NONE: the waypoint task holds at once; 10 s of silence starve it."""
+    spec = Spec()
+    tasks = [spec.task("GoToWayPoint", ("Name", "Leg"), ("Location", "0,500"), ("Thrust", "50"),
+                       ("TimeOut", "NEVER"), ("FinishFlag", "EndMission")), *safety(spec)]
+    rig = Rig(tasks, spec)
+    rig.tick(HELM_ONLINE=1.0)
+    out = rig.tick(NAV_X=0.0, NAV_Y=0.0, NAV_HEADING=0.0, NAV_X_SOURCE="GPS")
+    assert one(out, "DESIRED_THRUST") == 50.0
+    out = rig.tick(NAV_HEADING=0.0, NAV_X_SOURCE="NONE")
+    assert one(out, "DESIRED_THRUST") == 0.0, "holding must take effect in the declaring tick"
+    assert one(out, "DESIRED_RUDDER") == 0.0
+    assert "NAV_X" in str(one(out, "Leg_WARNING"))
+    assert one(rig.tick(NAV_HEADING=0.0), "DESIRED_THRUST") == 0.0
+    # the source returns before starvation: the task drives again
+    out = rig.tick(NAV_X=0.0, NAV_Y=1.0, NAV_HEADING=0.0, NAV_X_SOURCE="AP")
+    assert one(out, "DESIRED_THRUST") == 50.0
+    # lost for good: it starves 10 s after the last NAV_X
+    rig.tick(NAV_HEADING=0.0, NAV_X_SOURCE="NONE")
+    ended = []
+    for _ in range(12):
+        ended += values(rig.tick(NAV_HEADING=0.0), "TASK_ENDED")
+    assert ended == ["Leg:starved"]
+
+
+def test_yaw_source_loss_also_means_heading_loss():
+    nav = NavState()
+    nav.update(Message("NAV_YAW", 0.5, 1.0, "pNav"))
+    nav.update(Message("NAV_YAW_SOURCE", "NONE", 2.0, "pNav"))
+    assert nav.lost("NAV_HEADING") and nav.lost("NAV_YAW")
+    nav.update(Message("NAV_YAW_SOURCE", "INS", 3.0, "pNav"))
+    assert not nav.lost("NAV_HEADING")

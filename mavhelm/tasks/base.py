@@ -54,19 +54,37 @@ class State(enum.Enum):
     DONE = "done"
 
 
+NO_SOURCE = "NONE"
+_SAME_QUANTITY = {"NAV_YAW": "NAV_HEADING", "NAV_HEADING": "NAV_YAW"}
+
+
+def source_variable(name: str) -> str:
+    """Where pNav declares which source feeds a NAV variable (``NAV_X`` → ``NAV_X_SOURCE``)."""
+    return f"{name}_SOURCE"
+
+
 class NavState:
     """Latest value and data time of every double variable the helm hears.
 
     ``NAV_YAW`` (radians, yaw = −heading) also fills ``NAV_HEADING`` (degrees), so a navigator
-    that publishes either one keeps steering tasks fed.
+    that publishes either one keeps steering tasks fed. It also remembers which NAV variables
+    pNav has declared lost (``NAV_<K>_SOURCE = NONE``: every source in the queue timed out).
     """
 
     def __init__(self) -> None:
         self._values: dict[str, float] = {}
         self._times: dict[str, float] = {}
+        self._lost: set[str] = set()
 
     def update(self, msg: Message) -> None:
         if not msg.is_double:
+            if msg.name.startswith("NAV_") and msg.name.endswith("_SOURCE"):
+                name = msg.name[: -len("_SOURCE")]
+                names = {name, _SAME_QUANTITY.get(name, name)}
+                if msg.string == NO_SOURCE:
+                    self._lost |= names
+                else:
+                    self._lost -= names
             return
         self._values[msg.name] = msg.double
         self._times[msg.name] = msg.time
@@ -76,6 +94,10 @@ class NavState:
 
     def get(self, name: str) -> float | None:
         return self._values.get(name)
+
+    def lost(self, name: str) -> bool:
+        """pNav has no live source for this variable: its last value must not be acted on."""
+        return name in self._lost
 
     def time(self, name: str) -> float | None:
         """Data time stamp of the latest value, or None if never heard."""
@@ -148,6 +170,7 @@ class Task:
         self.yaw_pid: ScalarPID = self.gains.yaw_pid()
         self._outbox: list[tuple[str, float | str]] = []
         self._completed = False
+        self._holding = False
         for entry in block.entries:
             key = entry.key.lower()
             if not self._set_base(key, entry) and not self.set_param(key, entry):
@@ -301,7 +324,11 @@ class Task:
         return silent
 
     def step(self, nav: NavState, now: float) -> Votes | None:
-        """One online tick: time-out, starvation, then the task's own update."""
+        """One online tick: time-out, starvation, then the task's own update.
+
+        A task whose navigation pNav declares lost holds at once (casts no vote, so the helm
+        commands zero on its actuators in that same tick) and starves 10 s after the last data.
+        """
         if not self.active:
             return None
         assert self.start_time is not None
@@ -317,6 +344,14 @@ class Task:
             return None
         if any(nav.get(name) is None for name in self.needs()):
             return None
+        lost = sorted(name for name in self.needs() if nav.lost(name))
+        if lost:
+            if not self._holding:
+                self.post(f"{self.name}_WARNING",
+                          f"no source for {', '.join(lost)}: holding (no votes) until it returns")
+            self._holding = True
+            return None
+        self._holding = False
         votes = self.update(nav, now)
         if self._completed:
             self.end(COMPLETE, "DONE")

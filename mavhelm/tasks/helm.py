@@ -10,7 +10,7 @@ from __future__ import annotations
 from mavhelm.companion.app import App
 from mavhelm.companion.bus import Bus, Message
 from mavhelm.companion.mission import Block, Mission, MissionError
-from mavhelm.tasks.base import HEADING, NavState, Task, Votes
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes, source_variable
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.overall_timeout import OverallTimeOut
 from mavhelm.tasks.pid import HelmGains
@@ -77,8 +77,9 @@ class Helm(App):
         for t in self.tasks:
             subs.update(t.start_flags)
             subs.update(t.needs())
+            subs.update(source_variable(name) for name in t.needs())
         if HEADING in subs:
-            subs.add("NAV_YAW")
+            subs.update(("NAV_YAW", source_variable("NAV_YAW")))
         return subs
 
     def on_mail(self, mail: list[Message], now: float) -> None:
