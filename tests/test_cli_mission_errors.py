@@ -88,3 +88,16 @@ def test_good_mission_passes_validation_and_then_tries_the_link(tmp_path):
     bus = Bus(SimClock())
     assert Helm.from_mission(bus, loaded) is not None
     assert Navigator.from_mission(bus, loaded) is not None
+
+
+def test_unreachable_autopilot_is_one_clear_line(tmp_path):
+    path = tmp_path / "good.moos"
+    path.write_text(mission(GOOD_TASKS))
+    proc = subprocess.run(
+        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+         "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
+        capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines()[-1].startswith(
+        "mavhelm: cannot open the autopilot link:"), proc.stderr
+    assert "Traceback" not in proc.stderr

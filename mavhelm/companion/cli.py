@@ -90,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"mavhelm: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"mavhelm: cannot open the autopilot link: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":
