@@ -41,16 +41,20 @@ class AlogLogger(App):
 
     name = "pLogger"
 
-    def __init__(self, bus: Bus, path: str | Path, start_time: float | None = None) -> None:
+    def __init__(self, bus: Bus, path: str | Path, start_time: float | None = None,
+                 opened_on: float | None = None) -> None:
         """Open ``path`` (parents created) and write the banner; ``start_time`` defaults to
-        the bus clock's now and is kept to the millisecond the format records."""
+        the bus clock's now and is kept to the millisecond the format records. ``opened_on``
+        is the wall-clock date for the banner when the bus clock is simulated (it defaults to
+        ``start_time``, which on the vehicle is wall-clock time)."""
         super().__init__(bus)
         self.path = Path(path)
         start = bus.clock.now() if start_time is None else float(start_time)
         self.start = round(start, 3)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file: TextIO | None = self.path.open("w", encoding="utf-8")
-        opened = _time.strftime("%a %b %d %H:%M:%S %Y", _time.gmtime(self.start))
+        opened = _time.strftime("%a %b %d %H:%M:%S %Y",
+                                _time.gmtime(self.start if opened_on is None else opened_on))
         self._file.write(
             f"{_BANNER}\n"
             f"%% LOG FILE:       {self.path}\n"

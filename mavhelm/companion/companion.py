@@ -36,7 +36,8 @@ class Companion:
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
               connection: mavutil.mavfile | None = None,
-              alog_path: str | Path | None = None) -> Companion:
+              alog_path: str | Path | None = None,
+              alog_opened_on: float | None = None) -> Companion:
         """Everything is configured (and the mission validated) before the link is opened."""
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
@@ -52,7 +53,7 @@ class Companion:
         bridge = MavlinkBridge.from_mission(bus, mission, connect=connect, connection=connection)
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
-            apps.append(AlogLogger(bus, alog_path, clock.now()))
+            apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
         return cls(mission, bus, bridge, navigator, helm, Community(bus, apps), 1.0 / app_tick)
 
     def tick(self, now: float) -> None:

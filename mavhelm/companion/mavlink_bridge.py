@@ -191,11 +191,11 @@ class MavlinkBridge:
                 if msg.cog != _UNKNOWN_U16:
                     post("GPS_HEADING", msg.cog / 100.0)
         elif kind == "ATTITUDE":
-            post("INS_YAW", -msg.yaw)
+            post("INS_YAW", 0.0 - msg.yaw)
             post("INS_HEADING", math.degrees(msg.yaw) % 360.0)
             post("INS_PITCH", msg.pitch)
             post("INS_ROLL", msg.roll)
-            post("INS_YAW_VEL", -msg.yawspeed)
+            post("INS_YAW_VEL", 0.0 - msg.yawspeed)
         elif kind == "GLOBAL_POSITION_INT":
             if self.ekf_position_ok is False or (msg.lat == 0 and msg.lon == 0):
                 return

@@ -59,7 +59,7 @@ class SimulatedRun:
                         home=mission_origin(mission), start_heading=start_heading,
                         fast_start=fast_start, scenario=scenario, seed=seed, params=params)
         companion = Companion.build(mission, clock, connect=f"tcp:127.0.0.1:{sim.ports[0]}",
-                                    alog_path=alog_path)
+                                    alog_path=alog_path, alog_opened_on=time.time())
         gcs = GroundStation.connect(f"tcp:127.0.0.1:{sim.ports[1]}")
         operator = Operator(gcs)
         lockstep = Lockstep(sim, clock, dt=companion.tick_period)
