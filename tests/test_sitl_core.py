@@ -7,10 +7,7 @@ are deterministic and need no sleeps.
 
 from __future__ import annotations
 
-import fcntl
 import select
-import struct
-import termios
 import time
 from dataclasses import dataclass, field
 
@@ -19,14 +16,10 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.clock import SimClock
+from mavhelm.sitl.lockstep import pending_bytes
 from mavhelm.sitl.simulator import Simulator
 
 M = mavlink
-
-
-def _pending(sock) -> int:
-    raw = fcntl.ioctl(sock.fileno(), termios.FIONREAD, b"\0\0\0\0")
-    return struct.unpack("i", raw)[0]
 
 
 @dataclass
@@ -90,7 +83,7 @@ class Rig:
         for c in self.clients:
             if c.link.closed:
                 continue
-            self._wait(lambda c=c: c.link.bytes_received + _pending(c.link.sock)
+            self._wait(lambda c=c: c.link.bytes_received + pending_bytes(c.link.sock)
                        >= c.mav.total_bytes_sent, c.link.sock)
 
     def step(self, dt: float = 0.05, n: int = 1) -> None:
@@ -98,7 +91,7 @@ class Rig:
             self.deliver()
             self.sim.step(self.clock.advance(dt))
             for c in self.clients:
-                self._wait(lambda c=c: c.mav.total_bytes_received + _pending(c.conn.port)
+                self._wait(lambda c=c: c.mav.total_bytes_received + pending_bytes(c.conn.port)
                            >= c.link.bytes_sent, c.conn.port)
                 while (m := c.conn.recv_msg()) is not None:
                     if m.get_type() != "BAD_DATA":

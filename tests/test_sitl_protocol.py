@@ -527,3 +527,147 @@ def test_manual_control_drives_manual_like_an_override_and_timesync_answers(rig)
     rig.step()
     ts = g.last("TIMESYNC")
     assert ts.ts1 == 123456789 and ts.tc1 > 0
+
+
+# ---------------------------------------------------------------------------- what real clients ask
+# Gaps found by running MAVSDK and MAVProxy against the simulator.
+
+GEOFENCE = M.MAV_SYS_STATUS_GEOFENCE
+
+
+def test_sys_status_geofence_bits_follow_ac_fence(rig):
+    """AC_Fence: present = a circle/altitude fence configured in FENCE_TYPE (Rover default 6),
+    enabled = present + FENCE_ENABLE + an action, healthy unless breached — so a stock Rover
+    reports the fence healthy and MAVProxy does not say "fence breach"."""
+    c = rig.connect()
+    rig.run(1.0)
+    s = c.last("SYS_STATUS")
+    assert s.onboard_control_sensors_present & GEOFENCE
+    assert not s.onboard_control_sensors_enabled & GEOFENCE
+    assert s.onboard_control_sensors_health & GEOFENCE
+    for name, value in (("FENCE_ENABLE", 1), ("FENCE_ACTION", 1)):
+        c.mav.param_set_send(1, 1, name.encode(), value, M.MAV_PARAM_TYPE_INT8)
+    rig.run(1.0)
+    s = c.last("SYS_STATUS")
+    assert s.onboard_control_sensors_enabled & GEOFENCE
+    assert s.onboard_control_sensors_health & GEOFENCE
+    c.mav.param_set_send(1, 1, b"FENCE_ACTION", 0, M.MAV_PARAM_TYPE_INT8)  # report only
+    rig.run(1.0)
+    assert not c.last("SYS_STATUS").onboard_control_sensors_enabled & GEOFENCE
+    c.mav.param_set_send(1, 1, b"FENCE_TYPE", 4, M.MAV_PARAM_TYPE_INT8)  # polygon, none loaded
+    rig.run(1.0)
+    s = c.last("SYS_STATUS")
+    assert not s.onboard_control_sensors_present & GEOFENCE
+    assert s.onboard_control_sensors_health & GEOFENCE
+
+
+def test_get_home_position_fails_until_home_is_set_then_sends_home_and_origin(rig):
+    c = rig.connect()
+    rig.run(0.5)  # fast start: home and the EKF origin come at 1.0 s
+    command(c, M.MAV_CMD_GET_HOME_POSITION)
+    rig.step()
+    assert [a.result for a in c.acks(M.MAV_CMD_GET_HOME_POSITION)] == [M.MAV_RESULT_FAILED]
+    assert c.last("HOME_POSITION") is None
+    rig.run(1.5)
+    c.msgs.clear()
+    command(c, M.MAV_CMD_GET_HOME_POSITION)
+    rig.step()
+    assert [a.result for a in c.acks(M.MAV_CMD_GET_HOME_POSITION)] == [M.MAV_RESULT_ACCEPTED]
+    kinds = [m.get_type() for m in c.msgs]
+    assert kinds.index("COMMAND_ACK") < kinds.index("HOME_POSITION")
+    assert kinds.count("HOME_POSITION") == 1 and kinds.count("GPS_GLOBAL_ORIGIN") == 1
+    home = c.last("HOME_POSITION")
+    lat, lon = rig.sim.home.to_global(*rig.sim.autopilot.home)
+    assert home.latitude == pytest.approx(lat * 1e7, abs=2)
+    assert home.longitude == pytest.approx(lon * 1e7, abs=2)
+    assert abs(home.latitude - rig.sim.home.lat * 1e7) < 200  # within ~2 m of the start
+    # the same message through REQUEST_MESSAGE and as a stream
+    c.msgs.clear()
+    command(c, M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION)
+    rig.step()
+    assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED and len(c.of("HOME_POSITION")) == 1
+    command(c, M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, 500_000)
+    rig.step()
+    assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED
+    c.msgs.clear()
+    rig.run(3.0)
+    assert len(c.of("HOME_POSITION")) == 6
+
+
+def test_extended_sys_state_on_request_and_as_a_stream(rig):
+    """MAVSDK asks for EXTENDED_SYS_STATE (245); Rover knows it (vtol/landed state UNDEFINED)
+    but streams it only when asked."""
+    c = rig.connect()
+    rig.run(1.0)
+    assert not c.of("EXTENDED_SYS_STATE")
+    command(c, M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE)
+    rig.step()
+    assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED
+    e = c.last("EXTENDED_SYS_STATE")
+    assert (e.vtol_state, e.landed_state) == (M.MAV_VTOL_STATE_UNDEFINED,
+                                              M.MAV_LANDED_STATE_UNDEFINED)
+    command(c, M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 200_000)
+    rig.step()
+    assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED
+    assert not any("No ap_message" in t for t in c.texts())
+    c.msgs.clear()
+    rig.run(2.0)
+    assert len(c.of("EXTENDED_SYS_STATE")) == 10
+
+
+def _ftp_request(c, seq: int, opcode: int, name: bytes = b"", target: int = 1) -> None:
+    from pymavlink.mavftp_op import FTP_OP
+
+    op = FTP_OP(seq, 3, opcode, len(name), 0, 0, 0, bytearray(name) if name else None)
+    payload = op.pack()
+    c.mav.file_transfer_protocol_send(0, target, 1, list(payload.ljust(251, b"\0")))
+
+
+def _ftp_replies(c) -> list[tuple]:
+    """(target sys, target comp, seq, session, opcode, size, req_opcode, data) per reply."""
+    out = []
+    for m in c.of("FILE_TRANSFER_PROTOCOL"):
+        p = bytes(m.payload)
+        seq = p[0] | p[1] << 8
+        out.append((m.target_system, m.target_component, seq, p[2], p[3], p[4], p[5],
+                    tuple(p[12:12 + p[4]])))
+    return out
+
+
+def test_mavftp_requests_are_answered_at_once_with_nak(rig):
+    """No file system: a MAVFTP client (MAVProxy fetching @PARAM/param.pck) gets a NAK at once
+    instead of timing out, in ArduPilot's reply layout (seq + 1, same session, req_opcode)."""
+    c = rig.connect()
+    rig.run(0.5)
+    _ftp_request(c, 7, 4, b"@PARAM/param.pck?withdefaults=1")  # OpenFileRO
+    _ftp_request(c, 8, 2)  # ResetSessions
+    _ftp_request(c, 9, 15)  # BurstReadFile, nothing open
+    _ftp_request(c, 10, 99)  # no such opcode
+    _ftp_request(c, 11, 4, b"@PARAM/param.pck", target=42)  # for another system
+    rig.step()
+    assert _ftp_replies(c) == [
+        (255, 190, 8, 3, 129, 2, 4, (2, 2)),  # NAK FailErrno, ENOENT
+        (255, 190, 9, 3, 128, 0, 2, ()),  # ACK
+        (255, 190, 10, 3, 129, 1, 15, (10,)),  # NAK FileNotFound
+        (255, 190, 11, 3, 129, 1, 99, (7,)),  # NAK UnknownCommand
+    ]
+
+
+@pytest.mark.slow
+def test_mavproxy_falls_back_from_mavftp_to_param_list_at_once(tmp_path):
+    """MAVProxy first tries MAVFTP for the parameters; with the NAK it falls back to
+    PARAM_REQUEST_LIST at once (it took ~12 s to time out before; ~2 s now)."""
+    import time
+
+    from interop_helpers import MavproxyProcess, SimProcess
+
+    with SimProcess("--fast-start") as sim, \
+            MavproxyProcess(f"tcp:127.0.0.1:{sim.ports[1]}", tmp_path) as mavproxy:
+        mavproxy.wait_for(r"Detected vehicle", 15)
+        t0 = time.monotonic()
+        mavproxy.wait_for(r"Received \d+ parameters", 15)
+        took = time.monotonic() - t0
+        text = mavproxy.output.text()
+        assert took < 6.0, f"parameters took {took:.1f} s:\n{text}"
+        assert "FTP: request timed out" not in text
+        assert "fence breach" not in text

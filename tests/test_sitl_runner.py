@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import math
 import socket
 import time
 
@@ -113,3 +114,137 @@ def test_serial_sensors_updated_after_physics():
         assert all(abs(n - t) < 0.02 for n, t in rec.calls)
     finally:
         sim.close()
+
+
+# ---------------------------------------------------------------------------- --sensors
+
+
+def test_sensor_options():
+    a = _parse()
+    assert (a.sensors, a.beacons, a.ranging) == (False, None, "acoustic")
+    a = _parse("--sensors", "--beacons", "1:100,0;B2:0,150,-20,0.25", "--ranging", "radio")
+    assert a.sensors and a.ranging == "radio"
+    assert [(b.id, b.x, b.y, b.z, b.turnaround_s) for b in a.beacons] == [
+        ("1", 100.0, 0.0, 0.0, 0.0), ("B2", 0.0, 150.0, -20.0, 0.25)]
+    for bad in ("1:100", "1:a,b", ":1,2", "1:1,2,3,4,5", ";"):
+        with pytest.raises(SystemExit):
+            _parse("--beacons", bad)
+    with pytest.raises(SystemExit):
+        _parse("--ranging", "sonar")
+
+
+def test_beacons_without_sensors_is_refused(capsys):
+    assert runner.run(_parse("--port", "0", "--beacons", "1:10,0")) == 2
+    assert "--beacons needs --sensors" in capsys.readouterr().err
+
+
+def test_sensor_kit_per_vehicle():
+    from mavhelm.geo import Origin
+    from mavhelm.sitl.faults import Scenario
+
+    beacons = _parse("--beacons", "1:100,0;2:0,100").beacons
+    boat = runner.make_sensor_ports("boat", Origin(50.0, -4.0), Scenario(), beacons, "radio",
+                                    epoch=1.7e9)
+    rover = runner.make_sensor_ports("rover", Origin(50.0, -4.0), Scenario(), None, "acoustic")
+    try:
+        assert [p.name for p in boat] == ["nmea_gps", "heading", "depth", "dvl", "ranges"]
+        assert [p.name for p in rover] == ["nmea_gps", "heading", "dvl"]
+        assert boat[0].sensor.epoch == 1.7e9  # NMEA UTC follows the simulator's GPS clock
+        assert not rover[2].sensor.report_altitude  # wheel odometry
+        lines = [runner.describe_port(p) for p in boat]
+        assert lines[0] == f"nmea_gps on {boat[0].slave_path} (NMEA GGA+RMC, 1 Hz)"
+        assert lines[4].endswith("($PMVHRNG ranges, 2 beacons, 2 Hz)")
+        assert all(p.slave_path.startswith("/dev/") for p in boat + rover)
+    finally:
+        for p in boat + rover:
+            p.close()
+
+
+def test_sim_closes_the_sensor_ptys_on_ctrl_c(monkeypatch, capsys):
+    made = []
+    real = runner.make_sensor_ports
+
+    def recording(*args, **kw):
+        ports = real(*args, **kw)
+        made.extend(ports)
+        return ports
+
+    ticks = []
+
+    def fake_select(r, w, x, timeout):
+        ticks.append(timeout)
+        if len(ticks) >= 20:
+            raise KeyboardInterrupt
+        return [], [], []
+
+    monkeypatch.setattr(runner, "make_sensor_ports", recording)
+    monkeypatch.setattr(runner.select, "select", fake_select)
+    assert runner.run(_parse("--port", "0", "--fast-start", "--sensors")) == 0
+    out = capsys.readouterr().out
+    assert [p.name for p in made] == ["nmea_gps", "heading", "depth", "dvl"]
+    for p in made:
+        assert f"mavhelm sim: {p.name} on {p.slave_path} (" in out
+        assert p._master == -1 and p._slave == -1  # both ends closed
+    assert out.rstrip().endswith("mavhelm sim: stopped")
+
+
+def _gga_position(line: bytes) -> tuple[float, float] | None:
+    from mavhelm.sitl import nmea
+
+    try:
+        address, f = nmea.parse_sentence(line)
+    except nmea.NmeaError:
+        return None  # e.g. the tail of a line that was arriving as the port was opened
+    if not address.endswith("GGA") or f[5] != "1":
+        return None
+    lat = int(f[1][:2]) + float(f[1][2:]) / 60.0
+    lon = int(f[3][:3]) + float(f[3][3:]) / 60.0
+    return (-lat if f[2] == "S" else lat), (-lon if f[4] == "W" else lon)
+
+
+@pytest.mark.slow
+def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
+    """The real command: read the printed pty path with pyserial, as a companion would, and
+    get valid GGA at the --home position."""
+    import re
+    import signal
+
+    import serial
+    from interop_helpers import SimProcess
+
+    from mavhelm.geo import Origin
+
+    with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
+        paths: dict[str, str] = {}
+        deadline = time.monotonic() + 10
+        while len(paths) < 4:
+            line = sim.output.next_line(deadline - time.monotonic())
+            assert line is not None, sim.output.text()
+            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
+            if m:
+                paths[m.group(1)] = m.group(2)
+        assert set(paths) == {"nmea_gps", "heading", "depth", "dvl"}
+        fixes = []
+        with serial.Serial(paths["nmea_gps"], 4800, timeout=0.5) as gps:
+            deadline = time.monotonic() + 8
+            while len(fixes) < 2 and time.monotonic() < deadline:
+                line = gps.readline()
+                if line.endswith(b"\r\n") and b"GGA" in line:
+                    pos = _gga_position(line.strip())
+                    if pos is not None:
+                        fixes.append(pos)
+        assert len(fixes) == 2, sim.output.text()
+        home = Origin(50.1, -4.2)
+        for lat, lon in fixes:
+            x, y = home.to_local(lat, lon)
+            assert math.hypot(x, y) < 10.0, (lat, lon)
+        with serial.Serial(paths["heading"], timeout=0.5) as hdt:
+            hdt.readline()  # the first read may start mid-line
+            line = hdt.readline()
+        assert line.startswith(b"$HEHDT,") and abs(float(line.split(b",")[1]) - 90.0) < 3.0
+        sim.proc.send_signal(signal.SIGINT)
+        assert sim.proc.wait(timeout=10) == 0
+        deadline = time.monotonic() + 5
+        while "mavhelm sim: stopped" not in sim.output.text() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert "mavhelm sim: stopped" in sim.output.text()

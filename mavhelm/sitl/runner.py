@@ -2,6 +2,8 @@
 
 Run it, point QGroundControl / MAVProxy / the companion at tcp:127.0.0.1:5760 (or 5762,
 5763, or a --out UDP address), and it behaves like ArduPilot Rover SITL. Stop with Ctrl-C.
+With ``--sensors`` it also serves the boat's serial instruments (NMEA GPS, heading, echo
+sounder, DVL, range beacons) on pseudo-terminals and prints each one's ``/dev/pts/N``.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import argparse
 import select
 import sys
 import time
+from typing import Any
 
 from mavhelm.geo import Origin
 
@@ -58,6 +61,28 @@ def _home(text: str) -> tuple[float, float, float]:
     return vals[0], vals[1], vals[2]
 
 
+def _beacons(text: str) -> list[Any]:
+    """``ID:X,Y[,Z][,TURNAROUND];...`` (local metres: X east, Y north, Z up; turn-around s)."""
+    from mavhelm.sitl.serial_sensors import Beacon
+
+    out = []
+    for item in text.split(";"):
+        if not item.strip():
+            continue
+        bid, sep, rest = item.partition(":")
+        try:
+            vals = [float(v) for v in rest.split(",")]
+        except ValueError:
+            vals = []
+        if not sep or not bid.strip() or not 2 <= len(vals) <= 4:
+            raise argparse.ArgumentTypeError(
+                f"--beacons wants ID:X,Y[,Z][,TURNAROUND];..., not {item!r}")
+        out.append(Beacon(bid.strip(), *vals))
+    if not out:
+        raise argparse.ArgumentTypeError("--beacons names no beacon")
+    return out
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``mavhelm sim`` options."""
     parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat")
@@ -80,6 +105,64 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="random seed (default: the scenario's, else 0)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="set a parameter at start, e.g. SIM_CURRENT_SPD=0.5 (repeatable)")
+    parser.add_argument("--sensors", action="store_true",
+                        help="serve the serial sensors (NMEA GPS, heading, depth, DVL) on "
+                             "pseudo-terminals and print their /dev/pts paths")
+    parser.add_argument("--beacons", type=_beacons, default=None,
+                        metavar="ID:X,Y[,Z][,TURNAROUND];...",
+                        help="range beacons in the local frame (m from home, X east, Y north, "
+                             "Z up; turn-around s) for a ranging sensor (needs --sensors)")
+    parser.add_argument("--ranging", choices=("acoustic", "radio"), default="acoustic",
+                        help="with --beacons: acoustic LBL (default) or radio ranges")
+
+
+_SENTENCES = {"NmeaGps": "NMEA GGA+RMC", "HeadingSensor": "NMEA HDT",
+              "EchoSounder": "NMEA DPT+DBT", "DvlSensor": "$PMVHDVL body velocity",
+              "AcousticLbl": "$PMVHLBL travel times", "RadioRanges": "$PMVHRNG ranges"}
+
+
+def describe_port(port: Any) -> str:
+    """``nmea_gps on /dev/pts/7 (NMEA GGA+RMC, 1 Hz)``."""
+    sensor = port.sensor
+    what = _SENTENCES.get(type(sensor).__name__, type(sensor).__name__)
+    if type(sensor).__name__ == "DvlSensor" and not sensor.report_altitude:
+        what = "$PMVHDVL wheel odometry"
+    beacons = getattr(sensor, "beacons", None)
+    if beacons:
+        what += f", {len(beacons)} beacon{'s' if len(beacons) != 1 else ''}"
+    return f"{port.name} on {port.slave_path} ({what}, {sensor.rate_hz:g} Hz)"
+
+
+def make_sensor_ports(vehicle: str, origin: Origin, scenario: Any, beacons: list[Any] | None,
+                      ranging: str, epoch: float | None = None) -> list[Any]:
+    """The serial sensor kit on ptys: ``default_ports`` for a boat; a rover has no echo
+    sounder and its "DVL" is wheel odometry (no altitude, never loses lock)."""
+    import math
+
+    from mavhelm.sitl.serial_sensors import DvlSensor, PtySerialPort, default_ports
+
+    ports = default_ports(origin, scenario, beacons or (), ranging=ranging, pty=True)
+    try:
+        if vehicle == "rover":
+            keep = []
+            for port in ports:
+                if port.name in ("depth", "dvl"):
+                    port.close()
+                    if port.name == "dvl":
+                        keep.append(PtySerialPort(
+                            DvlSensor(report_altitude=False, max_altitude_m=math.inf),
+                            scenario))
+                else:
+                    keep.append(port)
+            ports = keep
+        for port in ports:
+            if hasattr(port.sensor, "epoch"):
+                port.sensor.epoch = epoch  # NMEA UTC = the simulator's GPS time
+    except BaseException:
+        for port in ports:
+            port.close()
+        raise
+    return ports
 
 
 def _params(items: list[str]) -> dict[str, float]:
@@ -122,27 +205,53 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"mavhelm sim: {exc}", file=sys.stderr)
         return 2
+    sensors = getattr(args, "sensors", False)
+    beacons = getattr(args, "beacons", None)
+    if beacons and not sensors:
+        print("mavhelm sim: --beacons needs --sensors", file=sys.stderr)
+        return 2
     lat, lon, heading = args.home
+    home = Origin(lat, lon)
+    epoch = time.time()
     clock = PacedClock(args.speedup)
+    ports: list[Any] = []
+    if sensors:
+        from mavhelm.sitl.faults import Scenario
+
+        # the serial noise comes from the scenario's streams; --seed seeds them without one
+        sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
+        try:
+            ports = make_sensor_ports(args.vehicle, home, sensor_scenario, beacons,
+                                      getattr(args, "ranging", "acoustic"), epoch)
+        except OSError as exc:
+            print(f"mavhelm sim: cannot open a pseudo-terminal: {exc}", file=sys.stderr)
+            return 1
     try:
-        sim = Simulator(clock, vehicle=args.vehicle, variant=args.variant, ports=args.port,
-                        host=args.host, udp_out=args.out, home=Origin(lat, lon),
-                        start_heading=heading, fast_start=args.fast_start, scenario=scenario,
-                        params=params, seed=seed or 0, epoch=time.time())
-    except OSError as exc:
-        print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
-        return 1
-    where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
-    outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
-    print(f"mavhelm sim: {args.vehicle} ({sim.variant}) at {lat:.6f},{lon:.6f} "
-          f"listening on {where}" + (f", sending to {outs}" if outs else ""), flush=True)
-    try:
-        while True:
-            sim.step(clock.now())
-            socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
-            select.select(socks, [], [], TICK)
-    except KeyboardInterrupt:
-        print("mavhelm sim: stopped", flush=True)
-        return 0
+        try:
+            sim = Simulator(clock, vehicle=args.vehicle, variant=args.variant, ports=args.port,
+                            host=args.host, udp_out=args.out, home=home,
+                            start_heading=heading, fast_start=args.fast_start,
+                            scenario=scenario, params=params, seed=seed or 0, epoch=epoch,
+                            serial_sensors=ports)
+        except OSError as exc:
+            print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
+            return 1
+        where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
+        outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
+        print(f"mavhelm sim: {args.vehicle} ({sim.variant}) at {lat:.6f},{lon:.6f} "
+              f"listening on {where}" + (f", sending to {outs}" if outs else ""), flush=True)
+        for port in ports:
+            print(f"mavhelm sim: {describe_port(port)}", flush=True)
+        try:
+            while True:
+                sim.step(clock.now())
+                socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
+                select.select(socks, [], [], TICK)
+        except KeyboardInterrupt:
+            print("mavhelm sim: stopped", flush=True)
+            return 0
+        finally:
+            sim.close()
     finally:
-        sim.close()
+        for port in ports:
+            port.close()

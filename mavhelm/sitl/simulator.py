@@ -57,8 +57,21 @@ _ORDER = [HEARTBEAT] + [m for s in STREAMS.values() for m in s]
 _ORDER_INDEX = {m: i for i, m in enumerate(_ORDER)}
 
 # Every message _build() knows (ArduPilot answers FAILED for ids it has no ap_message for).
+# EXTENDED_SYS_STATE is in no Rover stream but, like every vehicle, Rover sends it on request.
 KNOWN = set(_ORDER) | {M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
-                       M.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
+                       M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE}
+
+# AC_Fence parameters with Rover's defaults: FENCE_TYPE 6 = circle + polygon, not enabled.
+FENCE_PARAMS = {"FENCE_ENABLE": 0.0, "FENCE_TYPE": 6.0, "FENCE_ACTION": 1.0,
+                "FENCE_RADIUS": 300.0, "FENCE_MARGIN": 2.0}
+FENCE_ALT_MAX, FENCE_CIRCLE, FENCE_POLYGON, FENCE_ALT_MIN = 1, 2, 4, 8
+
+# MAVLink FTP (FILE_TRANSFER_PROTOCOL payload): opcodes and NAK error codes.
+FTP_NONE, FTP_TERMINATE, FTP_RESET, FTP_READ, FTP_WRITE, FTP_BURST_READ = 0, 1, 2, 5, 7, 15
+FTP_NAMED = {3, 4, 6, 8, 9, 10, 11, 12, 13, 14}  # list, open, create, remove, mkdir, crc, …
+FTP_ACK, FTP_NAK = 128, 129
+FTP_ERR_FAIL_ERRNO, FTP_ERR_UNKNOWN_COMMAND, FTP_ERR_FILE_NOT_FOUND = 2, 7, 10
+ENOENT = 2
 
 GPS_NO_FIX_DOP = 9999  # a receiver without a fix reports DOP 99.99
 GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
@@ -111,6 +124,7 @@ class Simulator:
                       "SIM_WIND_DIR": 0.0, "SIM_DEPTH": 20.0 if self.is_boat else 0.0,
                       "SIM_GPS_NOISE": 0.4, "SIM_EKF_DR_TIME": 10.0}
         merged = dict(sim_params)
+        merged.update(FENCE_PARAMS)
         merged.update({k.upper(): v for k, v in (params or {}).items()})
         self.autopilot = ap.Autopilot(boat=self.is_boat, skid=skid, boot_time=self.boot,
                                       timeline=timeline, params=merged)
@@ -503,13 +517,24 @@ class Simulator:
                                              int(round(abs(a.mix()[1]) * 100)), 0.0, 0.0)
         if mid == M.MAVLINK_MSG_ID_SYS_STATUS:
             sensors = 0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x10000000
+            present, enabled = sensors, sensors
             health = sensors
             if not a.gps_has_fix:
                 health &= ~0x20
             if not est.position_ok:
                 health &= ~0x200000
-            return M.MAVLink_sys_status_message(sensors, sensors, health, 150, 12600, 150, 90,
+            fence_present, fence_enabled = self._fence_status()
+            if fence_present:
+                present |= M.MAV_SYS_STATUS_GEOFENCE
+            if fence_enabled:
+                enabled |= M.MAV_SYS_STATUS_GEOFENCE
+            # healthy unless the fence has failed (breached); no fence is ever breached here
+            health |= M.MAV_SYS_STATUS_GEOFENCE
+            return M.MAVLink_sys_status_message(present, enabled, health, 150, 12600, 150, 90,
                                                 0, 0, 0, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
+            return M.MAVLink_extended_sys_state_message(M.MAV_VTOL_STATE_UNDEFINED,
+                                                        M.MAV_LANDED_STATE_UNDEFINED)
         if mid == M.MAVLINK_MSG_ID_SYSTEM_TIME:
             unix = int((now + self.epoch) * 1e6) if self._ever_fix else 0
             return M.MAVLink_system_time_message(unix, boot_ms)
@@ -601,6 +626,18 @@ class Simulator:
                 boot_ms, M.MAV_FRAME_GLOBAL, 0xFF8, lat, lon, 0.0, 0, 0, 0, 0, 0, 0, 0, 0)
         return None
 
+    def _fence_status(self) -> tuple[bool, bool]:
+        """(present, enabled) as AC_Fence reports them in SYS_STATUS. A fence type counts as
+        present if it is configured in FENCE_TYPE (the polygon only once one is uploaded, and
+        nothing can be uploaded here); enabled needs FENCE_ENABLE and an action other than
+        report-only."""
+        p = self.params
+        present = bool(int(p.get("FENCE_TYPE", 0))
+                       & (FENCE_ALT_MAX | FENCE_CIRCLE | FENCE_ALT_MIN))
+        enabled = (present and int(p.get("FENCE_ENABLE", 0)) != 0
+                   and int(p.get("FENCE_ACTION", 0)) != 0)
+        return present, enabled
+
     def _mag(self) -> tuple[int, int, int]:
         h = math.radians(self.autopilot.est.heading)
         return int(200 * math.cos(h)), int(-200 * math.sin(h)), 400
@@ -662,7 +699,7 @@ class Simulator:
         v = self.params[name]
         float_like = (not float(v).is_integer() or any(
             k in name for k in ("SPEED", "TIME", "RADIUS", "ATC_", "WP_", "CRUISE", "LOIT_",
-                                "SIM_", "GAIN", "ACCEL", "TURN_RATE")))
+                                "SIM_", "GAIN", "ACCEL", "TURN_RATE", "MARGIN")))
         return M.MAV_PARAM_TYPE_REAL32 if float_like else M.MAV_PARAM_TYPE_INT16
 
     def _param_value(self, name: str) -> Any:
@@ -772,6 +809,34 @@ class Simulator:
         elif t == "TIMESYNC":
             if msg.tc1 == 0:  # a request: answer with our clock, echoing theirs
                 link.send(M.MAVLink_timesync_message(int((now - self.boot) * 1e9), msg.ts1))
+        elif t == "FILE_TRANSFER_PROTOCOL":
+            self._ftp(link, msg)
+
+    def _ftp(self, link: Link, msg: Any) -> None:
+        """MAVLink FTP with no file system behind it: every file is missing, so a client's
+        MAVFTP parameter download fails at once and it falls back to PARAM_REQUEST_LIST.
+        Replies follow ArduPilot's GCS_FTP: seq + 1, same session, req_opcode = the request's
+        opcode, NAK with the error code in data[0] (FailErrno also carries errno in data[1])."""
+        payload = bytes(msg.payload)
+        if len(payload) < 12:
+            return
+        seq = payload[0] | (payload[1] << 8)
+        session, opcode = payload[2], payload[3]
+        if opcode in (FTP_ACK, FTP_NAK):
+            return  # not a request: ArduPilot eats these
+        data = b""
+        if opcode in (FTP_NONE, FTP_TERMINATE, FTP_RESET):
+            reply = FTP_ACK  # nothing is open, so closing succeeds
+        elif opcode in FTP_NAMED:
+            reply, data = FTP_NAK, bytes((FTP_ERR_FAIL_ERRNO, ENOENT))  # as for a missing file
+        elif opcode in (FTP_READ, FTP_WRITE, FTP_BURST_READ):
+            reply, data = FTP_NAK, bytes((FTP_ERR_FILE_NOT_FOUND,))  # no file open
+        else:
+            reply, data = FTP_NAK, bytes((FTP_ERR_UNKNOWN_COMMAND,))
+        out = (bytes(((seq + 1) & 0xFF, ((seq + 1) >> 8) & 0xFF, session, reply, len(data),
+                      opcode, 0, 0, 0, 0, 0, 0)) + data)
+        link.send(M.MAVLink_file_transfer_protocol_message(
+            0, msg.get_srcSystem(), msg.get_srcComponent(), list(out.ljust(251, b"\0"))))
 
     def _request_data_stream(self, link: Link, msg: Any, now: float) -> None:
         rate = msg.req_message_rate if msg.start_stop else 0
@@ -792,7 +857,7 @@ class Simulator:
                  frame: int | None) -> None:
         a = self.autopilot
         result = ap.RESULT_UNSUPPORTED
-        after: Any = None
+        after: list[Any] = []
         if cmd == M.MAV_CMD_DO_SET_MODE:
             # GCS_MAVLINK::_set_mode_common: only custom modes; anything else is DENIED
             result = ap.RESULT_DENIED
@@ -820,18 +885,27 @@ class Simulator:
         elif cmd == M.MAV_CMD_GET_MESSAGE_INTERVAL:
             mid = int(p[0])
             iv = link.intervals.get(mid, 0.0)
-            after = M.MAVLink_message_interval_message(mid, int(iv * 1e6) if iv > 0 else -1)
+            after = [M.MAVLink_message_interval_message(mid,
+                                                        int(iv * 1e6) if iv > 0 else -1)]
             result = ap.RESULT_ACCEPTED
         elif cmd == M.MAV_CMD_REQUEST_MESSAGE:
             mid = int(p[0])
             if mid in KNOWN:
-                after = self._build(mid, now)  # may be None: nothing to say yet
+                after = [self._build(mid, now)]  # may be None: nothing to say yet
                 result = ap.RESULT_ACCEPTED
             else:
                 result = ap.RESULT_FAILED
         elif cmd == M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
-            after = self._build(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, now)
+            after = [self._build(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, now)]
             result = ap.RESULT_ACCEPTED
+        elif cmd == M.MAV_CMD_GET_HOME_POSITION:
+            # GCS_MAVLINK::handle_command_get_home_position: FAILED until home is set
+            if a.home is None:
+                result = ap.RESULT_FAILED
+            else:
+                after = [self._build(M.MAVLINK_MSG_ID_HOME_POSITION, now),
+                         self._build(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, now)]
+                result = ap.RESULT_ACCEPTED
         elif cmd == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             result = ap.RESULT_ACCEPTED if a.set_mode(ap.RTL, now) else ap.RESULT_FAILED
         elif cmd == M.MAV_CMD_MISSION_START:
@@ -851,8 +925,9 @@ class Simulator:
                 change = bool(int(p[1]) & M.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE)
                 result = a.guided_reposition(x, y, p[0], change, now)
         self._ack(link, msg, cmd, result)
-        if after is not None:
-            link.send(after)
+        for m in after:
+            if m is not None:
+                link.send(m)
 
     def _position_target_local(self, msg: Any, now: float) -> None:
         a = self.autopilot
