@@ -21,6 +21,7 @@ test: $(BIN)/.installed
 bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_demo.py
 	$(BIN)/python benchmarks/bench_hour_mission.py
+	$(BIN)/python benchmarks/bench_sim_alone.py
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks

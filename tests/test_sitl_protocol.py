@@ -656,18 +656,14 @@ def test_mavftp_requests_are_answered_at_once_with_nak(rig):
 @pytest.mark.slow
 def test_mavproxy_falls_back_from_mavftp_to_param_list_at_once(tmp_path):
     """MAVProxy first tries MAVFTP for the parameters; with the NAK it falls back to
-    PARAM_REQUEST_LIST at once (it took ~12 s to time out before; ~2 s now)."""
-    import time
-
+    PARAM_REQUEST_LIST at once (measured: ~2 s; it took ~12 s to time out before). Without
+    the NAK, "FTP: request timed out" is printed ~10 s in, well inside the 15 s wait."""
     from interop_helpers import MavproxyProcess, SimProcess
 
     with SimProcess("--fast-start") as sim, \
             MavproxyProcess(f"tcp:127.0.0.1:{sim.ports[1]}", tmp_path) as mavproxy:
         mavproxy.wait_for(r"Detected vehicle", 15)
-        t0 = time.monotonic()
         mavproxy.wait_for(r"Received \d+ parameters", 15)
-        took = time.monotonic() - t0
         text = mavproxy.output.text()
-        assert took < 6.0, f"parameters took {took:.1f} s:\n{text}"
         assert "FTP: request timed out" not in text
         assert "fence breach" not in text
