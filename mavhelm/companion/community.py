@@ -19,10 +19,15 @@ class Community:
         self.app_seconds: dict[str, list[float]] = defaultdict(list)
 
     def tick(self, now: float) -> None:
-        """Each app, in order, subscribes, takes its mail and iterates."""
+        """Every app (re)subscribes, then each in order takes its mail and iterates.
+
+        Subscribing all first means that even on the first tick, and when a task has just
+        widened the helm's interests, nothing an earlier app posts is lost to a later one.
+        """
+        for app in self.apps:
+            self.bus.subscribe(app.name, app.subscriptions())
         for app in self.apps:
             t0 = time.perf_counter() if self.profile else 0.0
-            self.bus.subscribe(app.name, app.subscriptions())
             app.on_mail(self.bus.fetch(app.name), now)
             app.iterate(now)
             if self.profile:

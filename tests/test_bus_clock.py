@@ -1,0 +1,79 @@
+"""The bus (spec 1.1's database in one process) and the clocks every app shares."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavhelm.companion.app import App
+from mavhelm.companion.bus import Bus
+from mavhelm.companion.clock import SimClock
+from mavhelm.companion.community import Community
+
+
+def test_mail_goes_to_subscribers_in_posting_order_once():
+    clock = SimClock(5.0)
+    bus = Bus(clock)
+    bus.subscribe("helm", ["NAV_X", "GoNorth"])
+    bus.subscribe("logger", ["*"])
+    bus.notify("NAV_X", 3, "pNav")
+    bus.notify("NAV_Y", 4.0, "pNav")
+    bus.notify("GoNorth", "DONE", "pHelm", time=4.5)
+    helm = bus.fetch("helm")
+    assert [(m.name, m.value, m.time, m.source) for m in helm] == [
+        ("NAV_X", 3.0, 5.0, "pNav"), ("GoNorth", "DONE", 4.5, "pHelm")]
+    assert helm[0].is_double and isinstance(helm[0].value, float)
+    assert not helm[1].is_double and helm[1].string == "DONE"
+    with pytest.raises(TypeError):
+        _ = helm[1].double
+    assert [m.name for m in bus.fetch("logger")] == ["NAV_X", "NAV_Y", "GoNorth"]
+    assert bus.fetch("helm") == [], "mail is delivered once"
+    assert bus.latest("NAV_Y").double == 4.0
+
+
+def test_a_subscriber_also_named_explicitly_gets_one_copy_not_two():
+    bus = Bus(SimClock())
+    bus.subscribe("logger", ["*", "NAV_X"])
+    bus.notify("NAV_X", 1.0, "pNav")
+    assert len(bus.fetch("logger")) == 1
+
+
+def test_sim_clock_only_moves_forward():
+    clock = SimClock(10.0)
+    assert clock.advance(0.5) == 10.5
+    clock.set(12.0)
+    assert clock.now() == 12.0
+    with pytest.raises(ValueError):
+        clock.advance(-1.0)
+    with pytest.raises(ValueError):
+        clock.set(11.0)
+
+
+class Recorder(App):
+    def __init__(self, bus: Bus, name: str, post: str | None, wants: set[str]) -> None:
+        super().__init__(bus)
+        self.name = name
+        self.post = post
+        self.wants = wants
+        self.heard: list[list[str]] = []
+
+    def subscriptions(self) -> set[str]:
+        return self.wants
+
+    def on_mail(self, mail, now):
+        self.heard.append([m.name for m in mail])
+
+    def iterate(self, now):
+        if self.post:
+            self.notify(self.post, now)
+
+
+def test_community_order_makes_one_tick_from_sensor_to_actuator():
+    """What an earlier app posts is in a later app's mail in the same tick."""
+    clock = SimClock()
+    bus = Bus(clock)
+    sensor = Recorder(bus, "sensor", "GPS_X", set())
+    nav = Recorder(bus, "nav", "NAV_X", {"GPS_X"})
+    helm = Recorder(bus, "helm", None, {"NAV_X"})
+    community = Community(bus, [sensor, nav, helm])
+    community.tick(clock.advance(0.1))
+    assert nav.heard == [["GPS_X"]] and helm.heard == [["NAV_X"]]
