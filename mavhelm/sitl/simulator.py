@@ -5,12 +5,15 @@ physics in fixed 20 ms sub-steps (the autopilot's control loop runs in each), em
 streams that fell due, then feed the serial sensors. Nothing reads the wall clock and nothing
 blocks; randomness comes from ``numpy.random.default_rng(seed)`` and the scenario's named
 streams, so a run is repeatable from (seed, scenario, sequence of ``now``).
+
+This module is the vehicle's plumbing: construction, physics sub-stepping, links and stream
+scheduling, and the MAVLink dispatcher. What the autopilot believes (GPS receiver, EKF) is in
+``estimator.py``; how each outgoing message is built is in ``telemetry.py``.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -20,7 +23,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from mavhelm.geo import Origin
 from mavhelm.sitl import autopilot as ap
 from mavhelm.sitl import boat, rover
+from mavhelm.sitl.estimator import Estimator
 from mavhelm.sitl.links import Link, LinkHub
+from mavhelm.sitl.telemetry import HEARTBEAT, Telemetry
 from mavhelm.sitl.truth import Truth
 
 DEFAULT_HOME = Origin(56.0, -3.0)
@@ -51,12 +56,11 @@ STREAMS: dict[int, tuple[int, ...]] = {
 }
 BOAT_ONLY = {M.MAVLINK_MSG_ID_RANGEFINDER, M.MAVLINK_MSG_ID_DISTANCE_SENSOR}
 ROVER_ONLY = {M.MAVLINK_MSG_ID_WHEEL_DISTANCE}
-HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT
 # Fixed emission order (deterministic): heartbeat first, then stream order.
 _ORDER = [HEARTBEAT] + [m for s in STREAMS.values() for m in s]
 _ORDER_INDEX = {m: i for i, m in enumerate(_ORDER)}
 
-# Every message _build() knows (ArduPilot answers FAILED for ids it has no ap_message for).
+# Every message Telemetry.build() knows (ArduPilot answers FAILED for ids it has no ap_message for).
 # EXTENDED_SYS_STATE is in no Rover stream but, like every vehicle, Rover sends it on request.
 KNOWN = set(_ORDER) | {M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
                        M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE}
@@ -64,7 +68,6 @@ KNOWN = set(_ORDER) | {M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOB
 # AC_Fence parameters with Rover's defaults: FENCE_TYPE 6 = circle + polygon, not enabled.
 FENCE_PARAMS = {"FENCE_ENABLE": 0.0, "FENCE_TYPE": 6.0, "FENCE_ACTION": 1.0,
                 "FENCE_RADIUS": 300.0, "FENCE_MARGIN": 2.0}
-FENCE_ALT_MAX, FENCE_CIRCLE, FENCE_POLYGON, FENCE_ALT_MIN = 1, 2, 4, 8
 
 # MAVLink FTP (FILE_TRANSFER_PROTOCOL payload): opcodes and NAK error codes.
 FTP_NONE, FTP_TERMINATE, FTP_RESET, FTP_READ, FTP_WRITE, FTP_BURST_READ = 0, 1, 2, 5, 7, 15
@@ -72,22 +75,6 @@ FTP_NAMED = {3, 4, 6, 8, 9, 10, 11, 12, 13, 14}  # list, open, create, remove, m
 FTP_ACK, FTP_NAK = 128, 129
 FTP_ERR_FAIL_ERRNO, FTP_ERR_UNKNOWN_COMMAND, FTP_ERR_FILE_NOT_FOUND = 2, 7, 10
 ENOENT = 2
-
-GPS_NO_FIX_DOP = 9999  # a receiver without a fix reports DOP 99.99
-GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
-
-
-def _wrap_pi(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-class _GpsSample:
-    __slots__ = ("t", "fix", "x", "y", "vx", "vy", "sats", "eph")
-
-    def __init__(self, t: float, fix: int, x: float, y: float, vx: float, vy: float,
-                 sats: int, eph: int) -> None:
-        self.t, self.fix, self.x, self.y = t, fix, x, y
-        self.vx, self.vy, self.sats, self.eph = vx, vy, sats, eph
 
 
 class Simulator:
@@ -144,19 +131,14 @@ class Simulator:
         self.env = self._env_from_params()
         self.truth: Truth = self._truth_fn(self._state, self._t, self.env, self._model_params)
         self._wheels = [0.0, 0.0]
-        # GPS and estimator state
-        self._gps_period = max(0.05, self.params.get("GPS_RATE_MS", 200) / 1000.0)
-        self._next_gps = self.boot
-        self._gps: _GpsSample | None = None
-        # (t, x, y, vx, vy) of the last 10 s at 50 Hz, for GPS latency
-        self._gps_history: deque[tuple[float, float, float, float, float]] = deque(maxlen=500)
-        self._gps_bias = [0.0, 0.0]
-        self._last_fix_t: float | None = None
-        self._glitch_since: float | None = None
         self._compass_bias = 0.0
-        self._ever_fix = False
+        self.estimator = Estimator(self.boot,
+                                   max(0.05, self.params.get("GPS_RATE_MS", 200) / 1000.0),
+                                   self._gps_rng, self.autopilot.timeline, faults=self._faults,
+                                   named_rng=self._srng)
+        self.telemetry = Telemetry(self.autopilot, self.estimator, home=home, boot=self.boot,
+                                   epoch=self.epoch, is_boat=self.is_boat)
         self._origin_sent = False
-        self._last_loc = (0, 0)
         self.hub = LinkHub(ports, host, udp_out, srcSystem=self._sysid, srcComponent=1,
                            scenario=scenario)
         self._defaults: dict[int, float] = {HEARTBEAT: 1.0}
@@ -255,8 +237,18 @@ class Simulator:
 
     def _substep(self, t: float) -> None:
         a = self.autopilot
-        self._update_gps(t)
-        self._update_estimate(t, DT)
+        e = self.estimator
+        st = self._state
+        p = self.params
+        if e.update_gps(t, self.truth, p.get("SIM_GPS_NOISE", 0.4)):
+            a.gps_has_fix = e.has_fix
+        if self.is_boat:
+            surge, sway = st.u, st.v
+        else:
+            surge, sway = st.speed, None
+        e.update(a.est, t, DT, heading=st.heading, yaw_rate=st.r, surge=surge, sway=sway,
+                 compass_bias=self._compass_bias, have_origin=a.ekf_origin is not None,
+                 dr_time=p.get("SIM_EKF_DR_TIME", 10.0))
         a.update(t, DT)
         inputs = self._vehicle_inputs()
         self._state = self._step_fn(self._state, inputs, self.env, DT, self._model_params)
@@ -267,15 +259,15 @@ class Simulator:
             ce, cn = self.env.drift(self._model_params.leeway)
             vx = st.u * s + st.v * c + ce
             vy = st.u * c - st.v * s + cn
-            self._gps_history.append((t, st.x, st.y, vx, vy))
+            e.record(t, st.x, st.y, vx, vy)
         else:
             vx, vy = st.speed * math.sin(st.heading), st.speed * math.cos(st.heading)
-            self._gps_history.append((t, st.x, st.y, vx, vy))
+            e.record(t, st.x, st.y, vx, vy)
             half = 0.2 * st.r  # wheel track 0.4 m
             self._wheels[0] += (st.speed + half) * DT
             self._wheels[1] += (st.speed - half) * DT
 
-    # ------------------------------------------------------------------ GPS + estimator
+    # ------------------------------------------------------------------ scenario
     def _srng(self, name: str) -> np.random.Generator:
         """The scenario's named random stream, drawn once and kept (scenario.rng is fresh)."""
         g = self._scenario_rngs.get(name)
@@ -287,128 +279,6 @@ class Simulator:
         if self.scenario is None:
             return []
         return list(self.scenario.active(kind, t))
-
-    def _update_gps(self, t: float) -> None:
-        if t + 1e-9 < self._next_gps:
-            return
-        self._next_gps += self._gps_period
-        if self._next_gps <= t:
-            self._next_gps = t + self._gps_period
-        a = self.autopilot
-        up = t - self.boot
-        rng = self._gps_rng
-        # slow random-walk error (a real receiver's wander) plus white noise, every sample
-        tau, sigma = 30.0, self.params.get("SIM_GPS_NOISE", 0.4)
-        k = self._gps_period / tau
-        for i in range(2):
-            self._gps_bias[i] += -k * self._gps_bias[i] + sigma * math.sqrt(2 * k) * rng.normal()
-        white = rng.normal(0.0, 1.0, 2) * (sigma / 8.0)
-        if up < a.timeline.gps_fix * 0.3:
-            self._gps = None  # not yet detected
-            a.gps_has_fix = False
-            return
-        delay = 0.0
-        for f in self._faults("sensor_latency", t):
-            if str(f.params.get("sensor", "gps")).lower() in ("gps", "gps1", "mavlink_gps"):
-                d = float(f.params.get("delay", 0.0))
-                jit = float(f.params.get("jitter", 0.0) or 0.0)
-                if jit > 0:
-                    d += float(self._srng("gps_latency").uniform(0, jit))
-                delay = max(delay, d)
-        ts, x, y, vx, vy = self._history_at(t - delay)
-        outage = up < a.timeline.gps_fix or bool(self._faults("gps_outage", t))
-        if outage:
-            self._gps = _GpsSample(t, 1, x, y, 0.0, 0.0, 0, GPS_NO_FIX_DOP)
-            if self._ever_fix:
-                g = self._gps
-                g.x, g.y = self._last_loc
-            a.gps_has_fix = False
-            return
-        x += self._gps_bias[0] + white[0]
-        y += self._gps_bias[1] + white[1]
-        for f in self._faults("gps_jump", t):
-            x += float(f.params.get("dx", 0.0))
-            y += float(f.params.get("dy", 0.0))
-        for f in self._faults("gps_outlier", t):
-            r = self._srng("gps_outlier")
-            if r.random() < float(f.params.get("prob", 0.0)):
-                s = float(f.params.get("sigma", 10.0))
-                x += float(r.normal(0.0, s))
-                y += float(r.normal(0.0, s))
-        self._gps = _GpsSample(t, 3, x, y, vx, vy, 10, 121)
-        self._last_loc = (x, y)
-        self._ever_fix = True
-        a.gps_has_fix = True
-
-    def _history_at(self, t: float) -> tuple[float, float, float, float, float]:
-        h = self._gps_history
-        if not h:
-            st = self.truth
-            return (self._t, st.x, st.y, st.vx, st.vy)
-        if t >= h[-1][0]:
-            return h[-1]
-        for item in reversed(h):
-            if item[0] <= t:
-                return item
-        return h[0]
-
-    def _update_estimate(self, t: float, dt: float) -> None:
-        """A simple EKF stand-in: GPS-corrected position, dead reckoning without GPS."""
-        a = self.autopilot
-        est = a.est
-        st = self._state
-        bias = self._compass_bias
-        true_hdg = math.degrees(st.heading)
-        est.heading = (true_hdg + bias) % 360.0
-        est.yaw_rate = math.degrees(st.r)
-        g = self._gps
-        fresh = g is not None and g.fix >= 3 and g.t == t
-        dr_limit = self.params.get("SIM_EKF_DR_TIME", 10.0)
-        was_lost = self._last_fix_t is None or t - self._last_fix_t >= dr_limit
-        if g is not None and g.fix >= 3:
-            self._last_fix_t = g.t
-        up = t - self.boot
-        have_origin = a.ekf_origin is not None
-        using_gps = up >= a.timeline.ekf_gps
-        if self.is_boat:
-            h = math.radians(est.heading)
-            u, v = st.u, st.v
-            dr_vx, dr_vy = u * math.sin(h) + v * math.cos(h), u * math.cos(h) - v * math.sin(h)
-        else:
-            h = math.radians(est.heading)
-            dr_vx, dr_vy = st.speed * math.sin(h), st.speed * math.cos(h)
-        recent = self._last_fix_t is not None and t - self._last_fix_t < 0.5
-        if recent and g is not None:
-            est.vx, est.vy = g.vx, g.vy
-        else:
-            est.vx, est.vy = dr_vx, dr_vy
-        if not have_origin:
-            # before the origin the EKF sits at the first fix (const-position mode)
-            if g is not None and g.fix >= 3:
-                est.x, est.y = g.x, g.y
-            est.position_ok = False
-            return
-        est.x += est.vx * dt
-        est.y += est.vy * dt
-        if fresh and g is not None:
-            ix, iy = g.x - est.x, g.y - est.y
-            if was_lost:
-                # the filter had given up on position: it resets onto the first new fix
-                est.x, est.y = g.x, g.y
-                self._glitch_since = None
-            elif math.hypot(ix, iy) > 10.0:
-                # innovation gate: a glitching GPS is ignored, then the EKF resets onto it
-                if self._glitch_since is None:
-                    self._glitch_since = t
-                if t - self._glitch_since > 5.0:
-                    est.x, est.y = g.x, g.y
-                    self._glitch_since = None
-            else:
-                self._glitch_since = None
-                est.x += 0.3 * ix
-                est.y += 0.3 * iy
-        dr_ok = self._last_fix_t is not None and t - self._last_fix_t < dr_limit
-        est.position_ok = using_gps and dr_ok
 
     # ------------------------------------------------------------------ links and streams
     def _init_new_links(self, now: float) -> None:
@@ -451,6 +321,7 @@ class Simulator:
     def _emit_streams(self, now: float) -> None:
         cache: dict[int, Any] = {}
         limit = now + 1e-9
+        build, truth, wheels = self.telemetry.build, self.truth, self._wheels
         for link in self.hub.links:
             if link.next_any > limit:
                 continue
@@ -465,234 +336,16 @@ class Simulator:
                 due[mid] = nxt if nxt > limit else now + interval
                 msg = cache.get(mid)
                 if msg is None:
-                    msg = self._build(mid, now)
+                    msg = build(mid, now, truth, wheels)
                     cache[mid] = msg if msg is not None else False
                 if msg:
                     link.send(msg)
             link.next_any = min(due[m] for m in link.schedule()) if link.schedule() else 1e300
 
     # ------------------------------------------------------------------ message building
-    def _boot_ms(self, now: float) -> int:
-        return int(max(0.0, now - self.boot) * 1000) & 0xFFFFFFFF
-
-    def _latlon(self, x: float, y: float) -> tuple[int, int]:
-        lat, lon = self.home.to_global(x, y)
-        return int(round(lat * 1e7)), int(round(lon * 1e7))
-
     def _build(self, mid: int, now: float) -> Any:
         """One telemetry message of id mid as of now, or None if it has nothing to say."""
-        a = self.autopilot
-        est = a.est
-        tr = self.truth
-        boot_ms = self._boot_ms(now)
-        if mid == HEARTBEAT:
-            mav_type = M.MAV_TYPE_SURFACE_BOAT if self.is_boat else M.MAV_TYPE_GROUND_ROVER
-            return M.MAVLink_heartbeat_message(mav_type, M.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                               a.base_mode(), a.mode, a.system_status(), 3)
-        if mid == M.MAVLINK_MSG_ID_ATTITUDE:
-            return M.MAVLink_attitude_message(boot_ms, math.radians(tr.roll),
-                                              math.radians(tr.pitch),
-                                              _wrap_pi(math.radians(est.heading)), 0.0, 0.0,
-                                              math.radians(est.yaw_rate))
-        if mid == M.MAVLINK_MSG_ID_GPS_RAW_INT:
-            return self._gps_raw(now)
-        if mid == M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
-            if a.ekf_origin is None:
-                lat = lon = 0
-            else:
-                lat, lon = self._latlon(est.x, est.y)
-            hdg = int(round(est.heading * 100)) % 36000
-            return M.MAVLink_global_position_int_message(
-                boot_ms, lat, lon, 0, 0, int(round(est.vy * 100)), int(round(est.vx * 100)), 0,
-                hdg)
-        if mid == M.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
-            if a.ekf_origin is None:
-                return None
-            ox, oy = a.ekf_origin
-            return M.MAVLink_local_position_ned_message(boot_ms, est.y - oy, est.x - ox, 0.0,
-                                                        est.vy, est.vx, 0.0)
-        if mid == M.MAVLINK_MSG_ID_VFR_HUD:
-            spd = math.hypot(est.vx, est.vy)
-            return M.MAVLink_vfr_hud_message(spd, spd, int(est.heading) % 360,
-                                             int(round(abs(a.mix()[1]) * 100)), 0.0, 0.0)
-        if mid == M.MAVLINK_MSG_ID_SYS_STATUS:
-            sensors = 0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x10000000
-            present, enabled = sensors, sensors
-            health = sensors
-            if not a.gps_has_fix:
-                health &= ~0x20
-            if not est.position_ok:
-                health &= ~0x200000
-            fence_present, fence_enabled = self._fence_status()
-            if fence_present:
-                present |= M.MAV_SYS_STATUS_GEOFENCE
-            if fence_enabled:
-                enabled |= M.MAV_SYS_STATUS_GEOFENCE
-            # healthy unless the fence has failed (breached); no fence is ever breached here
-            health |= M.MAV_SYS_STATUS_GEOFENCE
-            return M.MAVLink_sys_status_message(present, enabled, health, 150, 12600, 150, 90,
-                                                0, 0, 0, 0, 0, 0)
-        if mid == M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
-            return M.MAVLink_extended_sys_state_message(M.MAV_VTOL_STATE_UNDEFINED,
-                                                        M.MAV_LANDED_STATE_UNDEFINED)
-        if mid == M.MAVLINK_MSG_ID_SYSTEM_TIME:
-            unix = int((now + self.epoch) * 1e6) if self._ever_fix else 0
-            return M.MAVLink_system_time_message(unix, boot_ms)
-        if mid == M.MAVLINK_MSG_ID_RAW_IMU:
-            xm, ym, zm = self._mag()
-            return M.MAVLink_raw_imu_message(int((now - self.boot) * 1e6), 0, 0, -1000, 0, 0,
-                                             int(math.radians(tr.yaw_rate) * 1000), xm, ym, zm,
-                                             0, 0)
-        if mid == M.MAVLINK_MSG_ID_SCALED_IMU2:
-            xm, ym, zm = self._mag()
-            return M.MAVLink_scaled_imu2_message(boot_ms, 0, 0, -1000, 0, 0,
-                                                 int(math.radians(tr.yaw_rate) * 1000), xm, ym,
-                                                 zm, 0)
-        if mid == M.MAVLINK_MSG_ID_SCALED_PRESSURE:
-            return M.MAVLink_scaled_pressure_message(boot_ms, 1013.25, 0.0, 2000, 0)
-        if mid == M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW:
-            o = a.servo_outputs()
-            return M.MAVLink_servo_output_raw_message(int((now - self.boot) * 1e6) & 0xFFFFFFFF,
-                                                      0, *o)
-        if mid == M.MAVLINK_MSG_ID_RC_CHANNELS:
-            rc = a.rc_in(now)
-            return M.MAVLink_rc_channels_message(boot_ms, 16, *rc[:18], 255)
-        if mid == M.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
-            flags, var = self._ekf_flags(now)
-            return M.MAVLink_ekf_status_report_message(flags, var, var, 0.01, 0.02, 0.0, 0.0)
-        if mid == M.MAVLINK_MSG_ID_DISTANCE_SENSOR:
-            depth_cm = int(round(tr.water_depth * 100))
-            return M.MAVLink_distance_sensor_message(boot_ms, 20, 10000, min(depth_cm, 10000),
-                                                     M.MAV_DISTANCE_SENSOR_ULTRASOUND, 0,
-                                                     M.MAV_SENSOR_ROTATION_PITCH_270, 0)
-        if mid == M.MAVLINK_MSG_ID_RANGEFINDER:
-            return M.MAVLink_rangefinder_message(min(tr.water_depth, 100.0), 0.0)
-        if mid == M.MAVLINK_MSG_ID_WHEEL_DISTANCE:
-            d = self._wheels + [0.0] * 14
-            return M.MAVLink_wheel_distance_message(int((now - self.boot) * 1e6), 2, d)
-        if mid == M.MAVLINK_MSG_ID_SIMSTATE:
-            lat, lon = self._latlon(tr.x, tr.y)
-            return M.MAVLink_simstate_message(math.radians(tr.roll), math.radians(tr.pitch),
-                                              _wrap_pi(math.radians(tr.heading)), 0.0, 0.0,
-                                              -9.81, 0.0, 0.0, math.radians(tr.yaw_rate),
-                                              lat, lon)
-        if mid == M.MAVLINK_MSG_ID_AHRS2:
-            lat, lon = self._latlon(est.x, est.y) if a.ekf_origin is not None else (0, 0)
-            return M.MAVLink_ahrs2_message(0.0, 0.0, _wrap_pi(math.radians(est.heading)), 0.0,
-                                           lat, lon)
-        if mid == M.MAVLINK_MSG_ID_AHRS:
-            return M.MAVLink_ahrs_message(0.0, 0.0, 0.0, 0.0, 0.0, 0.001, 0.001)
-        if mid == M.MAVLINK_MSG_ID_POWER_STATUS:
-            return M.MAVLink_power_status_message(5000, 0, 0)
-        if mid == M.MAVLINK_MSG_ID_MEMINFO:
-            return M.MAVLink_meminfo_message(0, 65535, 131072)
-        if mid == M.MAVLINK_MSG_ID_MISSION_CURRENT:
-            return M.MAVLink_mission_current_message(0, 0, 0, 0)
-        if mid == M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT:
-            return self._nav_controller()
-        if mid == M.MAVLINK_MSG_ID_BATTERY_STATUS:
-            return M.MAVLink_battery_status_message(0, 0, 0, 32767, [12600] + [65535] * 9, 150,
-                                                    -1, -1, 90)
-        if mid == M.MAVLINK_MSG_ID_VIBRATION:
-            return M.MAVLink_vibration_message(int((now - self.boot) * 1e6), 0.01, 0.01, 0.01,
-                                               0, 0, 0)
-        if mid == M.MAVLINK_MSG_ID_HOME_POSITION:
-            if a.home is None:
-                return None
-            lat, lon = self._latlon(*a.home)
-            ox, oy = a.ekf_origin or a.home
-            return M.MAVLink_home_position_message(lat, lon, 0, a.home[1] - oy, a.home[0] - ox,
-                                                   0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
-        if mid == M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
-            if a.ekf_origin is None:
-                return None
-            lat, lon = self._latlon(*a.ekf_origin)
-            return M.MAVLink_gps_global_origin_message(lat, lon, 0)
-        if mid == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            caps = (M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | M.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
-                    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
-                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
-                    | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
-                    | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
-            version = (4 << 24) | (7 << 16) | (0 << 8) | 0  # 4.7.0-dev
-            return M.MAVLink_autopilot_version_message(caps, version, 0, 0, 0, [0] * 8, [0] * 8,
-                                                       [0] * 8, 0, 0, 0)
-        if mid == M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT:
-            if a.mode != ap.GUIDED or a.wp is None:
-                return None
-            lat, lon = self._latlon(*a.wp)
-            return M.MAVLink_position_target_global_int_message(
-                boot_ms, M.MAV_FRAME_GLOBAL, 0xFF8, lat, lon, 0.0, 0, 0, 0, 0, 0, 0, 0, 0)
-        return None
-
-    def _fence_status(self) -> tuple[bool, bool]:
-        """(present, enabled) as AC_Fence reports them in SYS_STATUS. A fence type counts as
-        present if it is configured in FENCE_TYPE (the polygon only once one is uploaded, and
-        nothing can be uploaded here); enabled needs FENCE_ENABLE and an action other than
-        report-only."""
-        p = self.params
-        present = bool(int(p.get("FENCE_TYPE", 0))
-                       & (FENCE_ALT_MAX | FENCE_CIRCLE | FENCE_ALT_MIN))
-        enabled = (present and int(p.get("FENCE_ENABLE", 0)) != 0
-                   and int(p.get("FENCE_ACTION", 0)) != 0)
-        return present, enabled
-
-    def _mag(self) -> tuple[int, int, int]:
-        h = math.radians(self.autopilot.est.heading)
-        return int(200 * math.cos(h)), int(-200 * math.sin(h)), 400
-
-    def _gps_raw(self, now: float) -> Any:
-        g = self._gps
-        t_us = int((now + self.epoch) * 1e6) if self._ever_fix else 0
-        if g is None:
-            return M.MAVLink_gps_raw_int_message(0, M.GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
-                                                 GPS_UNKNOWN_DOP, GPS_UNKNOWN_DOP, 0, 0, 0)
-        if g.fix < 3:
-            lat, lon = self._latlon(g.x, g.y) if self._ever_fix else (0, 0)
-            return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_NO_FIX, lat, lon, 0,
-                                                 g.eph, g.eph, 0, 0, 0)
-        lat, lon = self._latlon(g.x, g.y)
-        vel = math.hypot(g.vx, g.vy)
-        cog = int(round(math.degrees(math.atan2(g.vx, g.vy)) * 100)) % 36000 if vel > 0.05 else 0
-        return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, g.eph,
-                                             200, int(round(vel * 100)), cog, g.sats, 0, 300,
-                                             500, 150, 0, 0)
-
-    def _ekf_flags(self, now: float) -> tuple[int, float]:
-        a = self.autopilot
-        up = now - self.boot
-        if up < a.timeline.initialised:
-            return M.EKF_UNINITIALIZED, 1.0
-        flags = M.EKF_ATTITUDE | M.EKF_VELOCITY_VERT | M.EKF_POS_VERT_ABS
-        var = 0.5
-        if a.est.position_ok:
-            flags |= (M.EKF_VELOCITY_HORIZ | M.EKF_POS_HORIZ_REL | M.EKF_POS_HORIZ_ABS
-                      | M.EKF_PRED_POS_HORIZ_REL | M.EKF_PRED_POS_HORIZ_ABS)
-            var = 0.02 if a.gps_has_fix else 0.3
-        else:
-            flags |= M.EKF_CONST_POS_MODE
-            if a.gps_has_fix:
-                flags |= M.EKF_PRED_POS_HORIZ_REL | M.EKF_PRED_POS_HORIZ_ABS
-        if self._glitch_since is not None:
-            flags |= M.EKF_GPS_GLITCHING
-            var = 1.0
-        return flags, var
-
-    def _nav_controller(self) -> Any:
-        a = self.autopilot
-        tgt = a.wp if a.mode in (ap.GUIDED, ap.RTL, ap.SMART_RTL) and a.wp else None
-        loitering = a.mode == ap.LOITER or (a.mode == ap.GUIDED and a.guided_sub == "loiter")
-        if tgt is None and loitering:
-            tgt = a.loiter_point
-        if tgt is None:
-            bearing = int(a.des_heading) if a.guided_sub == "heading" else 0
-            return M.MAVLink_nav_controller_output_message(0.0, 0.0, bearing, 0, 0, 0.0, 0.0, 0.0)
-        dx, dy = tgt[0] - a.est.x, tgt[1] - a.est.y
-        b = int(round(math.degrees(math.atan2(dx, dy))))
-        return M.MAVLink_nav_controller_output_message(0.0, 0.0, b, b,
-                                                       min(int(math.hypot(dx, dy)), 65535),
-                                                       0.0, 0.0, 0.0)
+        return self.telemetry.build(mid, now, self.truth, self._wheels)
 
     # ------------------------------------------------------------------ parameters
     def _param_type(self, name: str) -> int:
@@ -722,7 +375,7 @@ class Simulator:
                 link.mav.srcSystem = self._sysid
             self.hub._src = (self._sysid, 1)
         if name == "GPS_RATE_MS":
-            self._gps_period = max(0.05, value / 1000.0)
+            self.estimator.gps_period = max(0.05, value / 1000.0)
         return True
 
     # ------------------------------------------------------------------ message handling

@@ -1,0 +1,259 @@
+"""The MAVLink messages the simulated vehicle sends, built from the simulator's state.
+
+``Telemetry.build(mid, now, truth, wheels)`` returns one pymavlink message of id ``mid`` as
+ArduPilot Rover would send it at ``now`` (or None when Rover has nothing to say yet, e.g.
+LOCAL_POSITION_NED before the EKF origin). It reads the autopilot (modes, estimate, servo
+outputs), the estimator (GPS fix, EKF status) and the true state; it sends nothing and keeps no
+state of its own, so which messages go out when stays with the simulator's stream scheduling.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as M
+
+from mavhelm.geo import Origin
+from mavhelm.sitl import autopilot as ap
+from mavhelm.sitl.estimator import Estimator
+from mavhelm.sitl.truth import Truth
+
+HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT
+GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
+FENCE_ALT_MAX, FENCE_CIRCLE, FENCE_POLYGON, FENCE_ALT_MIN = 1, 2, 4, 8  # FENCE_TYPE bits
+
+
+def wrap_pi(a: float) -> float:
+    """An angle in radians wrapped to [-π, π), as ATTITUDE and friends carry yaw."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def fence_status(params: dict[str, float]) -> tuple[bool, bool]:
+    """(present, enabled) as AC_Fence reports them in SYS_STATUS. A fence type counts as
+    present if it is configured in FENCE_TYPE (the polygon only once one is uploaded, and
+    nothing can be uploaded here); enabled needs FENCE_ENABLE and an action other than
+    report-only."""
+    p = params
+    present = bool(int(p.get("FENCE_TYPE", 0))
+                   & (FENCE_ALT_MAX | FENCE_CIRCLE | FENCE_ALT_MIN))
+    enabled = (present and int(p.get("FENCE_ENABLE", 0)) != 0
+               and int(p.get("FENCE_ACTION", 0)) != 0)
+    return present, enabled
+
+
+class Telemetry:
+    """Builds the vehicle's outgoing messages.
+
+    autopilot and estimator are read at build time (never copied), so the messages always
+    show their current state; home is the local frame's origin, boot the sim time of power-on
+    and epoch the Unix time of sim t = 0 (GPS and SYSTEM_TIME clocks).
+    """
+
+    def __init__(self, autopilot: ap.Autopilot, estimator: Estimator, *, home: Origin,
+                 boot: float, epoch: float, is_boat: bool) -> None:
+        self.autopilot = autopilot
+        self.estimator = estimator
+        self.home = home
+        self.boot = boot
+        self.epoch = epoch
+        self.is_boat = is_boat
+
+    def boot_ms(self, now: float) -> int:
+        """Milliseconds since boot, wrapped to uint32 like time_boot_ms."""
+        return int(max(0.0, now - self.boot) * 1000) & 0xFFFFFFFF
+
+    def latlon(self, x: float, y: float) -> tuple[int, int]:
+        """A local position as MAVLink's degE7 integers."""
+        lat, lon = self.home.to_global(x, y)
+        return int(round(lat * 1e7)), int(round(lon * 1e7))
+
+    def build(self, mid: int, now: float, truth: Truth, wheels: list[float]) -> Any:
+        """One telemetry message of id mid as of now, or None if it has nothing to say.
+
+        truth is the vehicle's true state (SIMSTATE, IMU, depth) and wheels the two wheel
+        odometers in m (WHEEL_DISTANCE)."""
+        a = self.autopilot
+        est = a.est
+        tr = truth
+        boot_ms = self.boot_ms(now)
+        if mid == HEARTBEAT:
+            mav_type = M.MAV_TYPE_SURFACE_BOAT if self.is_boat else M.MAV_TYPE_GROUND_ROVER
+            return M.MAVLink_heartbeat_message(mav_type, M.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                               a.base_mode(), a.mode, a.system_status(), 3)
+        if mid == M.MAVLINK_MSG_ID_ATTITUDE:
+            return M.MAVLink_attitude_message(boot_ms, math.radians(tr.roll),
+                                              math.radians(tr.pitch),
+                                              wrap_pi(math.radians(est.heading)), 0.0, 0.0,
+                                              math.radians(est.yaw_rate))
+        if mid == M.MAVLINK_MSG_ID_GPS_RAW_INT:
+            return self.gps_raw(now)
+        if mid == M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            if a.ekf_origin is None:
+                lat = lon = 0
+            else:
+                lat, lon = self.latlon(est.x, est.y)
+            hdg = int(round(est.heading * 100)) % 36000
+            return M.MAVLink_global_position_int_message(
+                boot_ms, lat, lon, 0, 0, int(round(est.vy * 100)), int(round(est.vx * 100)), 0,
+                hdg)
+        if mid == M.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
+            if a.ekf_origin is None:
+                return None
+            ox, oy = a.ekf_origin
+            return M.MAVLink_local_position_ned_message(boot_ms, est.y - oy, est.x - ox, 0.0,
+                                                        est.vy, est.vx, 0.0)
+        if mid == M.MAVLINK_MSG_ID_VFR_HUD:
+            spd = math.hypot(est.vx, est.vy)
+            return M.MAVLink_vfr_hud_message(spd, spd, int(est.heading) % 360,
+                                             int(round(abs(a.mix()[1]) * 100)), 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_SYS_STATUS:
+            sensors = 0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x10000000
+            present, enabled = sensors, sensors
+            health = sensors
+            if not a.gps_has_fix:
+                health &= ~0x20
+            if not est.position_ok:
+                health &= ~0x200000
+            fence_present, fence_enabled = fence_status(a.params)
+            if fence_present:
+                present |= M.MAV_SYS_STATUS_GEOFENCE
+            if fence_enabled:
+                enabled |= M.MAV_SYS_STATUS_GEOFENCE
+            # healthy unless the fence has failed (breached); no fence is ever breached here
+            health |= M.MAV_SYS_STATUS_GEOFENCE
+            return M.MAVLink_sys_status_message(present, enabled, health, 150, 12600, 150, 90,
+                                                0, 0, 0, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
+            return M.MAVLink_extended_sys_state_message(M.MAV_VTOL_STATE_UNDEFINED,
+                                                        M.MAV_LANDED_STATE_UNDEFINED)
+        if mid == M.MAVLINK_MSG_ID_SYSTEM_TIME:
+            unix = int((now + self.epoch) * 1e6) if self.estimator.ever_fix else 0
+            return M.MAVLink_system_time_message(unix, boot_ms)
+        if mid == M.MAVLINK_MSG_ID_RAW_IMU:
+            xm, ym, zm = self.mag()
+            return M.MAVLink_raw_imu_message(int((now - self.boot) * 1e6), 0, 0, -1000, 0, 0,
+                                             int(math.radians(tr.yaw_rate) * 1000), xm, ym, zm,
+                                             0, 0)
+        if mid == M.MAVLINK_MSG_ID_SCALED_IMU2:
+            xm, ym, zm = self.mag()
+            return M.MAVLink_scaled_imu2_message(boot_ms, 0, 0, -1000, 0, 0,
+                                                 int(math.radians(tr.yaw_rate) * 1000), xm, ym,
+                                                 zm, 0)
+        if mid == M.MAVLINK_MSG_ID_SCALED_PRESSURE:
+            return M.MAVLink_scaled_pressure_message(boot_ms, 1013.25, 0.0, 2000, 0)
+        if mid == M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW:
+            o = a.servo_outputs()
+            return M.MAVLink_servo_output_raw_message(int((now - self.boot) * 1e6) & 0xFFFFFFFF,
+                                                      0, *o)
+        if mid == M.MAVLINK_MSG_ID_RC_CHANNELS:
+            rc = a.rc_in(now)
+            return M.MAVLink_rc_channels_message(boot_ms, 16, *rc[:18], 255)
+        if mid == M.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
+            flags, var = self.estimator.ekf_flags(now, est, a.gps_has_fix)
+            return M.MAVLink_ekf_status_report_message(flags, var, var, 0.01, 0.02, 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+            depth_cm = int(round(tr.water_depth * 100))
+            return M.MAVLink_distance_sensor_message(boot_ms, 20, 10000, min(depth_cm, 10000),
+                                                     M.MAV_DISTANCE_SENSOR_ULTRASOUND, 0,
+                                                     M.MAV_SENSOR_ROTATION_PITCH_270, 0)
+        if mid == M.MAVLINK_MSG_ID_RANGEFINDER:
+            return M.MAVLink_rangefinder_message(min(tr.water_depth, 100.0), 0.0)
+        if mid == M.MAVLINK_MSG_ID_WHEEL_DISTANCE:
+            d = wheels + [0.0] * 14
+            return M.MAVLink_wheel_distance_message(int((now - self.boot) * 1e6), 2, d)
+        if mid == M.MAVLINK_MSG_ID_SIMSTATE:
+            lat, lon = self.latlon(tr.x, tr.y)
+            return M.MAVLink_simstate_message(math.radians(tr.roll), math.radians(tr.pitch),
+                                              wrap_pi(math.radians(tr.heading)), 0.0, 0.0,
+                                              -9.81, 0.0, 0.0, math.radians(tr.yaw_rate),
+                                              lat, lon)
+        if mid == M.MAVLINK_MSG_ID_AHRS2:
+            lat, lon = self.latlon(est.x, est.y) if a.ekf_origin is not None else (0, 0)
+            return M.MAVLink_ahrs2_message(0.0, 0.0, wrap_pi(math.radians(est.heading)), 0.0,
+                                           lat, lon)
+        if mid == M.MAVLINK_MSG_ID_AHRS:
+            return M.MAVLink_ahrs_message(0.0, 0.0, 0.0, 0.0, 0.0, 0.001, 0.001)
+        if mid == M.MAVLINK_MSG_ID_POWER_STATUS:
+            return M.MAVLink_power_status_message(5000, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_MEMINFO:
+            return M.MAVLink_meminfo_message(0, 65535, 131072)
+        if mid == M.MAVLINK_MSG_ID_MISSION_CURRENT:
+            return M.MAVLink_mission_current_message(0, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT:
+            return self.nav_controller()
+        if mid == M.MAVLINK_MSG_ID_BATTERY_STATUS:
+            return M.MAVLink_battery_status_message(0, 0, 0, 32767, [12600] + [65535] * 9, 150,
+                                                    -1, -1, 90)
+        if mid == M.MAVLINK_MSG_ID_VIBRATION:
+            return M.MAVLink_vibration_message(int((now - self.boot) * 1e6), 0.01, 0.01, 0.01,
+                                               0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_HOME_POSITION:
+            if a.home is None:
+                return None
+            lat, lon = self.latlon(*a.home)
+            ox, oy = a.ekf_origin or a.home
+            return M.MAVLink_home_position_message(lat, lon, 0, a.home[1] - oy, a.home[0] - ox,
+                                                   0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
+        if mid == M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
+            if a.ekf_origin is None:
+                return None
+            lat, lon = self.latlon(*a.ekf_origin)
+            return M.MAVLink_gps_global_origin_message(lat, lon, 0)
+        if mid == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            caps = (M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | M.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                    | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+                    | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
+            version = (4 << 24) | (7 << 16) | (0 << 8) | 0  # 4.7.0-dev
+            return M.MAVLink_autopilot_version_message(caps, version, 0, 0, 0, [0] * 8, [0] * 8,
+                                                       [0] * 8, 0, 0, 0)
+        if mid == M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT:
+            if a.mode != ap.GUIDED or a.wp is None:
+                return None
+            lat, lon = self.latlon(*a.wp)
+            return M.MAVLink_position_target_global_int_message(
+                boot_ms, M.MAV_FRAME_GLOBAL, 0xFF8, lat, lon, 0.0, 0, 0, 0, 0, 0, 0, 0, 0)
+        return None
+
+    def mag(self) -> tuple[int, int, int]:
+        """Raw magnetometer (mGauss) consistent with the heading the autopilot believes."""
+        h = math.radians(self.autopilot.est.heading)
+        return int(200 * math.cos(h)), int(-200 * math.sin(h)), 400
+
+    def gps_raw(self, now: float) -> Any:
+        """GPS_RAW_INT from the receiver's latest sample (AP_GPS's view, not the EKF's)."""
+        e = self.estimator
+        g = e.gps
+        t_us = int((now + self.epoch) * 1e6) if e.ever_fix else 0
+        if g is None:
+            return M.MAVLink_gps_raw_int_message(0, M.GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
+                                                 GPS_UNKNOWN_DOP, GPS_UNKNOWN_DOP, 0, 0, 0)
+        if g.fix < 3:
+            lat, lon = self.latlon(g.x, g.y) if e.ever_fix else (0, 0)
+            return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_NO_FIX, lat, lon, 0,
+                                                 g.eph, g.eph, 0, 0, 0)
+        lat, lon = self.latlon(g.x, g.y)
+        vel = math.hypot(g.vx, g.vy)
+        cog = int(round(math.degrees(math.atan2(g.vx, g.vy)) * 100)) % 36000 if vel > 0.05 else 0
+        return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, g.eph,
+                                             200, int(round(vel * 100)), cog, g.sats, 0, 300,
+                                             500, 150, 0, 0)
+
+    def nav_controller(self) -> Any:
+        """NAV_CONTROLLER_OUTPUT: bearing and distance to the current target, if any."""
+        a = self.autopilot
+        tgt = a.wp if a.mode in (ap.GUIDED, ap.RTL, ap.SMART_RTL) and a.wp else None
+        loitering = a.mode == ap.LOITER or (a.mode == ap.GUIDED and a.guided_sub == "loiter")
+        if tgt is None and loitering:
+            tgt = a.loiter_point
+        if tgt is None:
+            bearing = int(a.des_heading) if a.guided_sub == "heading" else 0
+            return M.MAVLink_nav_controller_output_message(0.0, 0.0, bearing, 0, 0, 0.0, 0.0, 0.0)
+        dx, dy = tgt[0] - a.est.x, tgt[1] - a.est.y
+        b = int(round(math.degrees(math.atan2(dx, dy))))
+        return M.MAVLink_nav_controller_output_message(0.0, 0.0, b, b,
+                                                       min(int(math.hypot(dx, dy)), 65535),
+                                                       0.0, 0.0, 0.0)
