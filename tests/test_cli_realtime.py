@@ -108,7 +108,9 @@ def test_mavhelm_run_drives_mavhelm_sim_in_real_time(tmp_path):
             ended = bool(alogs) and any(m.name == "MISSION_ENDED" for m in read_alog(alogs[0]))
         assert ended, "the mission did not reach EndMission in real time"
         companion.send_signal(signal.SIGINT)
-        assert companion.wait(timeout=10) == 0
+        out, err = companion.communicate(timeout=30)
+        assert companion.returncode == 0, err
+        assert "mavhelm: stopped" in out
         log = read_alog(alogs[0])
         started = [m.string for m in log if m.name == "TASK_STARTED"]
         assert started.index("Wait") < started.index("East") < started.index("AllStop")
@@ -124,6 +126,7 @@ def test_mavhelm_run_drives_mavhelm_sim_in_real_time(tmp_path):
             if proc is not None and proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
                 try:
-                    proc.wait(timeout=10)
+                    proc.communicate(timeout=30)
                 except subprocess.TimeoutExpired:
                     proc.kill()
+                    proc.communicate()
