@@ -3,27 +3,24 @@
 from __future__ import annotations
 
 from mavhelm.companion.mission import Block, Entry
-from mavhelm.tasks.base import HEADING, NavState, Task, Votes, parse_thrust
+from mavhelm.tasks.base import HEADING, NavState, Votes
 from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.steering import SteeringTask
 
 
-class ConstantHeading(Task):
+class ConstantHeading(SteeringTask):
     keyword = "ConstantHeading"
-    params = ("Heading", "Thrust")
+    params = ("Heading", *SteeringTask.params)
 
     def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
         self.heading: float | None = None
-        self.thrust: float | None = None
         super().__init__(block, gains)
 
     def set_param(self, key: str, entry: Entry) -> bool:
         if key == "heading":
             self.heading = entry.as_float() % 360.0
-        elif key == "thrust":
-            self.thrust = parse_thrust(entry)
-        else:
-            return False
-        return True
+            return True
+        return super().set_param(key, entry)
 
     def check(self, block: Block) -> None:
         if self.heading is None:
@@ -34,7 +31,4 @@ class ConstantHeading(Task):
 
     def update(self, nav: NavState, now: float) -> Votes | None:
         assert self.heading is not None
-        votes: Votes = {"RUDDER": self.steer(self.heading, nav)}
-        if self.thrust is not None:
-            votes["THRUST"] = self.thrust
-        return votes
+        return self.drive(self.heading, nav)

@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 
 from mavhelm.companion.mission import Block, Entry
-from mavhelm.tasks.base import HEADING, NavState, Task, Votes, parse_thrust
+from mavhelm.tasks.base import HEADING, NavState, Votes
 from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.steering import SteeringTask
 
 
 def parse_location(entry: Entry) -> tuple[float, float, float | None]:
@@ -23,14 +24,13 @@ def parse_location(entry: Entry) -> tuple[float, float, float | None]:
     return values[0], values[1], values[2] if len(values) == 3 else None
 
 
-class GoToWayPoint(Task):
+class GoToWayPoint(SteeringTask):
     keyword = "GoToWayPoint"
-    params = ("Location", "Radius", "Thrust")
+    params = ("Location", "Radius", *SteeringTask.params)
 
     def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
         self.location: tuple[float, float, float | None] | None = None
         self.radius = 5.0
-        self.thrust: float | None = None
         super().__init__(block, gains)
 
     def set_param(self, key: str, entry: Entry) -> bool:
@@ -40,10 +40,8 @@ class GoToWayPoint(Task):
             self.radius = entry.as_float()
             if self.radius <= 0:
                 raise entry.error(f"Radius must be positive metres, got {entry.value}")
-        elif key == "thrust":
-            self.thrust = parse_thrust(entry)
         else:
-            return False
+            return super().set_param(key, entry)
         return True
 
     def check(self, block: Block) -> None:
@@ -63,7 +61,4 @@ class GoToWayPoint(Task):
             self.complete()
             return None
         bearing = math.degrees(math.atan2(self.location[0] - nav.x, self.location[1] - nav.y))
-        votes: Votes = {"RUDDER": self.steer(bearing % 360.0, nav)}
-        if self.thrust is not None:
-            votes["THRUST"] = self.thrust
-        return votes
+        return self.drive(bearing % 360.0, nav)
