@@ -158,3 +158,25 @@ def test_heartbeat_silence_takes_the_link_down(serial_link):
             break
     assert got["AP_LINK"] == 0.0 and got["HELM_ONLINE"] == 0.0
     assert clock.now() - bridge.last_heartbeat == pytest.approx(3.1, abs=0.06)
+
+
+def test_configured_stream_rates_are_what_is_requested():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    os.set_blocking(master, False)
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    config = BridgeConfig(connect=os.ttyname(slave))
+    config.streams["VFR_HUD"] = 2.0
+    bridge = MavlinkBridge(bus, config, ORIGIN)
+    try:
+        ap = FakeAutopilot(master)
+        ap.heartbeat(0, armed=False)
+        tick(bridge, bus, clock)
+        intervals = {int(m.param1): m.param2 for m in ap.read()
+                     if m.get_type() == "COMMAND_LONG"}
+        assert intervals[mavlink.MAVLINK_MSG_ID_VFR_HUD] == 500000
+    finally:
+        bridge.close()
+        os.close(master)
+        os.close(slave)
