@@ -101,3 +101,14 @@ def test_unreachable_autopilot_is_one_clear_line(tmp_path):
     assert proc.stderr.strip().splitlines()[-1].startswith(
         "mavhelm: cannot open the autopilot link:"), proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_a_zero_app_tick_is_refused_where_it_is(tmp_path):
+    path = tmp_path / "tick.moos"
+    path.write_text(mission("    AppTick = 0\n" + GOOD_TASKS))
+    proc = subprocess.run(
+        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+         "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
+        capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"mavhelm: {path}:11: AppTick must be a positive rate in Hz"

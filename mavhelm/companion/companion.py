@@ -44,12 +44,9 @@ class Companion:
         bus = Bus(clock)
         navigator = Navigator.from_mission(bus, mission)
         helm = Helm.from_mission(bus, mission)
-        helm_block = mission.process("pHelm")
-        app_tick = helm_block.get_float("AppTick", DEFAULT_APP_TICK) if helm_block else 10.0
+        app_tick = helm.block.get_float("AppTick", DEFAULT_APP_TICK)
         if app_tick <= 0:
-            entry = helm_block.entry("AppTick") if helm_block else None
-            if entry is not None:
-                raise entry.error("AppTick must be a positive rate in Hz")
+            raise helm.block.require("AppTick").error("AppTick must be a positive rate in Hz")
         bridge = MavlinkBridge.from_mission(bus, mission, connect=connect, connection=connection)
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
