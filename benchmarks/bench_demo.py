@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mavhelm.sitl.harness import SimulatedRun
+from mavhelm.demo.harness import SimulatedRun
 
 DEMO = Path(__file__).resolve().parent.parent / "examples" / "demo.moos"
 

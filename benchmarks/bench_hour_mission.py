@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mavhelm.sitl.harness import SimulatedRun
+from mavhelm.demo.harness import SimulatedRun
 
 CORNERS = [(0.0, 150.0), (150.0, 150.0), (150.0, 0.0), (0.0, 0.0)]
 LAPS = 12

@@ -8,7 +8,7 @@ import socket
 import time
 from pathlib import Path
 
-from mavhelm.companion.clock import SimClock
+from mavhelm.core.clock import SimClock
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.simulator import Simulator
 

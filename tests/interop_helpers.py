@@ -24,7 +24,7 @@ from typing import Any
 
 from pymavlink import mavutil
 
-from mavhelm.companion.clock import WallClock
+from mavhelm.core.clock import WallClock
 from mavhelm.sitl.simulator import Simulator
 
 STEP = 0.01  # wall seconds between simulator steps (mavhelm sim's runner uses the same tick)
@@ -162,7 +162,7 @@ class SimProcess:
     BANNER = re.compile(r"tcp:([0-9.]+):(\d+)")
 
     def __init__(self, *args: str, timeout: float = 15.0) -> None:
-        cmd = [sys.executable, "-u", "-m", "mavhelm.companion.cli", "sim", "--port", "0,0,0",
+        cmd = [sys.executable, "-u", "-m", "mavhelm.cli", "sim", "--port", "0,0,0",
                *args]
         self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, env=_child_env(),

@@ -3,8 +3,8 @@ from pathlib import Path
 import pytest
 
 from mavhelm.companion.alog import AlogLogger, format_line, read_alog
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.clock import SimClock
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import SimClock
 
 START = 1763877905.25
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from mavhelm.companion.mavlink_bridge import BridgeConfig
-from mavhelm.companion.mission import MissionError, parse_mission
+from mavhelm.core.mission import MissionError, parse_mission
 
 BASE = """LatOrigin = 56.0
 LongOrigin = -5.0
@@ -32,12 +32,12 @@ def test_settings_are_read():
 
 
 @pytest.mark.parametrize("body, line, words", [
-    ("Conect = tcp:127.0.0.1:5760", 5, "unknown iMAVLink setting Conect"),
-    ("OnlineModes = GUIDED, AUTOPILOT", 5, "unknown Rover mode AUTOPILOT"),
+    ("Conect = tcp:127.0.0.1:5760", 5, "unknown setting 'Conect' for iMAVLink (known: Connect,"),
+    ("OnlineModes = GUIDED, AUTOPILOT", 5, "OnlineModes expects one of MANUAL"),
     ("Actuation = rc_override", 5, "not supported yet"),
     ("Stream = ATTITUDE", 5, "MESSAGE_NAME@rate_hz"),
     ("Stream = NOT_A_MESSAGE@5", 5, "MESSAGE_NAME@rate_hz"),
-    ("Stream = ATTITUDE@fast", 5, "must be a number"),
+    ("Stream = ATTITUDE@fast", 5, "Stream ATTITUDE rate expects a number"),
     ("MaxTurnRate = lots", 5, "MaxTurnRate expects a number"),
 ])
 def test_mistakes_are_refused_where_they_are(body, line, words):

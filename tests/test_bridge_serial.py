@@ -14,10 +14,10 @@ import tty
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.bus import Bus
-from mavhelm.companion.clock import SimClock
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
-from mavhelm.geo import Origin
+from mavhelm.core.bus import Bus
+from mavhelm.core.clock import SimClock
+from mavhelm.core.geodesy import Origin
 
 ORIGIN = Origin(56.4120, -5.4760)
 

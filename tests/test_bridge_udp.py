@@ -6,10 +6,10 @@ from __future__ import annotations
 import socket
 import time
 
-from mavhelm.companion.bus import Bus
-from mavhelm.companion.clock import SimClock
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
-from mavhelm.geo import Origin
+from mavhelm.core.bus import Bus
+from mavhelm.core.clock import SimClock
+from mavhelm.core.geodesy import Origin
 from mavhelm.sitl.simulator import Simulator
 
 HOME = Origin(56.4120, -5.4760)

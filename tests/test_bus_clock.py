@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus
-from mavhelm.companion.clock import SimClock
-from mavhelm.companion.community import Community
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus
+from mavhelm.core.clock import SimClock
+from mavhelm.core.community import Community
 
 
 def test_mail_goes_to_subscribers_in_posting_order_once():

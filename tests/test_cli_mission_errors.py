@@ -63,7 +63,7 @@ def test_malformed_mission_is_refused_with_file_line_and_reason(tmp_path, case):
     path = tmp_path / "bad.moos"
     path.write_text(text)
     proc = subprocess.run(
-        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+        [sys.executable, "-m", "mavhelm.cli", "run", str(path),
          "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
         capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stderr
@@ -78,9 +78,9 @@ def test_good_mission_passes_validation_and_then_tries_the_link(tmp_path):
     """The control case: the same mission, well formed, gets past validation to the link."""
     path = tmp_path / "good.moos"
     path.write_text(mission(GOOD_TASKS))
-    from mavhelm.companion.bus import Bus
-    from mavhelm.companion.clock import SimClock
-    from mavhelm.companion.mission import load_mission
+    from mavhelm.core.bus import Bus
+    from mavhelm.core.clock import SimClock
+    from mavhelm.core.mission import load_mission
     from mavhelm.nav.navigator import Navigator
     from mavhelm.tasks.helm import Helm
 
@@ -94,7 +94,7 @@ def test_unreachable_autopilot_is_one_clear_line(tmp_path):
     path = tmp_path / "good.moos"
     path.write_text(mission(GOOD_TASKS))
     proc = subprocess.run(
-        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+        [sys.executable, "-m", "mavhelm.cli", "run", str(path),
          "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
         capture_output=True, text=True, timeout=60)
     assert proc.returncode == 1
@@ -107,8 +107,8 @@ def test_a_zero_app_tick_is_refused_where_it_is(tmp_path):
     path = tmp_path / "tick.moos"
     path.write_text(mission("    AppTick = 0\n" + GOOD_TASKS))
     proc = subprocess.run(
-        [sys.executable, "-m", "mavhelm.companion.cli", "run", str(path),
+        [sys.executable, "-m", "mavhelm.cli", "run", str(path),
          "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
         capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
-    assert proc.stderr.strip() == f"mavhelm: {path}:11: AppTick must be a positive rate in Hz"
+    assert proc.stderr.strip() == f"mavhelm: {path}:11: AppTick must be a number in [1, 50], got 0"

@@ -17,7 +17,7 @@ import time
 import pytest
 
 from mavhelm.companion.alog import read_alog
-from mavhelm.sitl.groundstation import GroundStation
+from mavhelm.demo.groundstation import GroundStation
 
 pytestmark = pytest.mark.slow
 
@@ -66,7 +66,7 @@ ProcessConfig = pHelm
 
 
 def command(*args: str) -> list[str]:
-    return [sys.executable, "-m", "mavhelm.companion.cli", *args]
+    return [sys.executable, "-m", "mavhelm.cli", *args]
 
 
 def test_mavhelm_run_drives_mavhelm_sim_in_real_time(tmp_path):

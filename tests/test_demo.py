@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from mavhelm.cli import main
 from mavhelm.companion.alog import read_alog
-from mavhelm.companion.cli import main
 
 pytestmark = pytest.mark.slow
 

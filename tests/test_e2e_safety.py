@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.mission import parse_mission
+from mavhelm.core.mission import parse_mission
+from mavhelm.demo.harness import SimulatedRun
 from mavhelm.sitl.faults import Scenario
-from mavhelm.sitl.harness import SimulatedRun
 
 pytestmark = pytest.mark.slow
 

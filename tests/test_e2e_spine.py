@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from mavhelm.sitl.harness import SimulatedRun
+from mavhelm.demo.harness import SimulatedRun
 
 pytestmark = pytest.mark.slow
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.clock import SimClock
-from mavhelm.companion.mission import Block, Entry, Mission, MissionError
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import SimClock
+from mavhelm.core.mission import Block, Entry, Mission, MissionError
 from mavhelm.tasks.base import NavState, Task, Votes
 from mavhelm.tasks.helm import Helm
 from mavhelm.tasks.registry import TASK_TYPES

@@ -28,7 +28,7 @@ import pytest
 from interop_helpers import Companion, RealtimeSim, SimProcess, armed, wait_until
 from pymavlink import mavutil
 
-from mavhelm.geo import Origin
+from mavhelm.core.geodesy import Origin
 
 pytestmark = pytest.mark.slow
 

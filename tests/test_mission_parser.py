@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 
-from mavhelm.companion.mission import (
+from mavhelm.core.mission import (
     MissionError,
     load_mission,
     load_tasks,

@@ -2,26 +2,19 @@ import math
 
 import pytest
 
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.clock import SimClock
-from mavhelm.companion.mission import MissionError, parse_mission
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import SimClock
+from mavhelm.core.mission import MissionError, parse_mission
 from mavhelm.nav.navigator import Navigator
 
 PNAV = """\
 ProcessConfig = pNav
 {
-   AppTick = 10
-   CommsTick = 10
    X     = GPS @ 2.0 , EKF @ 2.5 ,LSQ @ 5.0 ,
    Y     = GPS @ 2.0 , AP @ 2.0
    Depth = DEPTH @ 1.0
    Yaw   = INS @ 1.0, AP @ 2
    Speed = GPS, AP
-   SENSOR_GPS = GPS->GPS_X @ 0,0,0 ~ 3
-   EKF_LAG = 1
-   LSQ_TIMEOUT = 30
-   FIXEDDEPTH = 0@0.1
-   NAV_LOG = true
 }
 """
 
@@ -181,11 +174,19 @@ def nav_error(body: str) -> MissionError:
 @pytest.mark.parametrize(
     ("body", "line", "words"),
     [
-        ("  X = GPS\n  Frobnicate = 3", 5, "unknown pNav setting 'Frobnicate'"),
+        ("  X = GPS\n  Frobnicate = 3", 5, "unknown setting 'Frobnicate' for pNav (known: X, Y,"),
+        ("  X = GPS\n  SENSOR_GPS = GPS->GPS_X @ 0,0,0 ~ 3", 5,
+         "SENSOR_GPS is not supported yet (pNav has no SENSOR setting today); remove it"),
+        ("  X = GPS\n  EKF_LAG = 1", 5, "EKF_LAG is not supported yet"),
+        ("  X = GPS\n  LSQ_TIMEOUT = 30", 5, "LSQ_TIMEOUT is not supported yet"),
+        ("  X = GPS\n  FIXEDDEPTH = 0@0.1", 5, "FIXEDDEPTH is not supported yet"),
+        ("  X = GPS\n  AppTick = 10", 5, "unknown setting 'AppTick' for pNav"),
         ("  X = GPS @ later", 4, "timeout of GPS"),
-        ("  X = GPS\n  x = EKF", 5, "already defined at line 4"),
+        ("  X = GPS\n  x = EKF", 5, "x is already set at line 4; give each setting once"),
+        ("  X = GPS @ nan", 4, "the timeout of GPS must be seconds in (0, 3600], got 'nan'"),
+        ("  X = GPS @ 1e9", 4, "the timeout of GPS must be seconds in (0, 3600], got '1e9'"),
         ("  Yaw = INS\n  Heading = GPS", 5, "not both"),
-        ("  AppTick = 5", 2, "at least one priority queue"),
+        ("  // no queue", 2, "at least one priority queue"),
     ],
 )
 def test_configuration_errors_are_located(body: str, line: int, words: str) -> None:

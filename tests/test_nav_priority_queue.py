@@ -1,6 +1,6 @@
 import pytest
 
-from mavhelm.companion.mission import Entry, MissionError
+from mavhelm.core.mission import Entry, MissionError
 from mavhelm.nav.priority_queue import DEFAULT_TIMEOUT, PriorityQueue, Source
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.core.mission import Block, Entry, MissionError
+from mavhelm.tasks.helm import HELM_SCHEMA
 from mavhelm.tasks.pid import HelmGains, ScalarPID
 
 
@@ -85,9 +86,9 @@ def _helm_block(*pairs: tuple[str, str]) -> Block:
 
 
 def test_gains_defaults_and_overrides() -> None:
-    g = HelmGains.from_block(
+    g = HelmGains.from_values(HELM_SCHEMA.read(
         _helm_block(("yaw_pid_kp", "0.8"), ("MAXRUDDER", "30"), ("AppTick", "5"))
-    )
+    ))
     assert (g.yaw_kp, g.yaw_kd, g.yaw_ki, g.yaw_integral_limit) == (0.8, 0.2, 0.0, 2.0)
     assert (g.max_rudder, g.max_thrust, g.max_elevator) == (30.0, 100.0, 30.0)
     pid = g.yaw_pid()
@@ -97,14 +98,14 @@ def test_gains_defaults_and_overrides() -> None:
 @pytest.mark.parametrize(
     ("key", "value", "expected"),
     [
-        ("YAW_PID_KQ", "1", "unknown helm gain"),
-        ("YAW_PID_KP", "-1", "must not be negative"),
-        ("MAXRUDDER", "0", "must be positive"),
-        ("MAXTHRUST", "lots", "expects a number"),
+        ("YAW_PID_KQ", "1", "unknown setting 'YAW_PID_KQ' for pHelm (known: AppTick,"),
+        ("YAW_PID_KP", "-1", "YAW_PID_KP must be a number in [0, 1000], got -1"),
+        ("MAXRUDDER", "0", "MAXRUDDER must be a number in (0, 90], got 0"),
+        ("MAXTHRUST", "lots", "MAXTHRUST expects a number in (0, 100], got 'lots'"),
     ],
 )
 def test_bad_gains_are_refused_with_location(key: str, value: str, expected: str) -> None:
     with pytest.raises(MissionError) as err:
-        HelmGains.from_block(_helm_block(("AppTick", "4"), (key, value)))
+        HELM_SCHEMA.read(_helm_block(("AppTick", "4"), (key, value)))
     assert expected in str(err.value)
     assert str(err.value).startswith("m.moos:21:")

@@ -15,7 +15,7 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.clock import SimClock
+from mavhelm.core.clock import SimClock
 from mavhelm.sitl.lockstep import pending_bytes
 from mavhelm.sitl.simulator import Simulator
 

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from mavhelm.companion.clock import SimClock
+from mavhelm.core.clock import SimClock
 from mavhelm.sitl import runner
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.simulator import Simulator
@@ -151,8 +151,8 @@ def test_beacons_without_sensors_is_refused(capsys):
 
 
 def test_sensor_kit_per_vehicle():
-    from mavhelm.geo import Origin
     from mavhelm.sitl.faults import Scenario
+    from mavhelm.sitl.flat_earth import Origin
 
     beacons = _parse("--beacons", "1:100,0;2:0,100").beacons
     boat = runner.make_sensor_ports("boat", Origin(50.0, -4.0), Scenario(), beacons, "radio",
@@ -224,7 +224,7 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
     import serial
     from interop_helpers import SimProcess
 
-    from mavhelm.geo import Origin
+    from mavhelm.sitl.flat_earth import Origin
 
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
         paths: dict[str, str] = {}

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from mavhelm.geo import Origin
 from mavhelm.sitl import nmea
 from mavhelm.sitl.faults import Scenario
+from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.serial_sensors import (
     AcousticLbl,
     Beacon,

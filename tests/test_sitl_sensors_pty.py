@@ -7,9 +7,9 @@ import time
 import pytest
 import serial
 
-from mavhelm.geo import Origin
 from mavhelm.sitl import nmea
 from mavhelm.sitl.faults import Scenario
+from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.serial_sensors import HeadingSensor, NmeaGps, PtySerialPort
 from mavhelm.sitl.truth import Truth
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.bus import Message
-from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Block, Entry, MissionError
 from mavhelm.tasks.base import NavState, State, Task
 from mavhelm.tasks.heading import ConstantHeading
 from mavhelm.tasks.registry import build_task, known_types, task_class
@@ -63,15 +63,16 @@ def test_registry_is_case_insensitive_and_accepts_timeout_alias() -> None:
 @pytest.mark.parametrize(
     ("pairs", "line", "expected"),
     [
-        ((("Heding", "90"),), 32, "unknown parameter 'Heding'"),
-        ((("Priority", "0"),), 32, "Priority must be a whole number >= 1"),
+        ((("Heding", "90"),), 32,
+         "unknown setting 'Heding' for a ConstantHeading task (known: Name,"),
+        ((("Priority", "0"),), 32, "Priority must be a whole number in [1, 1000], got 0"),
         ((("Priority", "1.5"),), 32, "Priority must be a whole number"),
         ((("TimeOut", "soon"),), 32, "TimeOut expects a number"),
-        ((("TimeOut", "-5"),), 32, "TimeOut must be positive"),
-        ((("InitialState", "maybe"),), 32, "InitialState expects ON or OFF"),
+        ((("TimeOut", "-5"),), 32, "TimeOut must be a number in (0, 604800], got -5"),
+        ((("InitialState", "maybe"),), 32, "InitialState expects one of ON, OFF, got 'maybe'"),
         ((("StartFlag", "A,,B"),), 32, "comma-separated"),
         ((("LOGPID", "sure"),), 32, "LOGPID expects true or false"),
-        ((("Thrust", "150"),), 32, "percentage"),
+        ((("Thrust", "150"),), 32, "Thrust must be a number in [-100, 100], got 150"),
         ((("Name", "Leg 7"),), 32, "Name must be one word"),
     ],
 )
@@ -85,7 +86,7 @@ def test_bad_parameters_are_refused_at_their_line(
 
 
 def test_unknown_parameter_message_lists_known_ones() -> None:
-    with pytest.raises(MissionError, match="known: .*Heading, Thrust"):
+    with pytest.raises(MissionError, match="known: .*Thrust, Heading"):
         heading_task(("Speed", "2"))
 
 

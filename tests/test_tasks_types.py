@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.bus import Message
-from mavhelm.companion.mission import Block, Entry, MissionError
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Block, Entry, MissionError
 from mavhelm.tasks.base import NavState
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.heading import ConstantHeading
@@ -48,7 +48,8 @@ def test_waypoint_parameters() -> None:
         ((), "needs Location", 60),
         ((("Location", "1"),), "expects x,y", 62),
         ((("Location", "1,a"),), "expects x,y", 62),
-        ((("Location", "1,2"), ("Radius", "0")), "Radius must be positive", 63),
+        ((("Location", "1,2"), ("Radius", "0")),
+         "Radius must be a number in [0.1, 10000], got 0", 63),
     ],
 )
 def test_waypoint_refusals(pairs: tuple[tuple[str, str], ...], expected: str, line: int) -> None:

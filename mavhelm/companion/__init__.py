@@ -1,1 +1,1 @@
-"""The companion process: bus, clock, mission files, MAVLink bridge, logs and the CLI."""
+"""The companion process: MAVLink bridge, the community that hosts nav and helm, logs."""

@@ -13,8 +13,8 @@ import time as _time
 from pathlib import Path
 from typing import TextIO
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus, Message
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus, Message
 
 _BANNER = "%" * 60
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf)", re.IGNORECASE)

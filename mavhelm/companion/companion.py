@@ -12,15 +12,25 @@ from pathlib import Path
 from pymavlink import mavutil
 
 from mavhelm.companion.alog import AlogLogger
-from mavhelm.companion.bus import Bus
-from mavhelm.companion.clock import Clock
-from mavhelm.companion.community import Community
 from mavhelm.companion.mavlink_bridge import MavlinkBridge
-from mavhelm.companion.mission import Mission, load_mission
+from mavhelm.core.bus import Bus
+from mavhelm.core.clock import Clock
+from mavhelm.core.community import Community
+from mavhelm.core.mission import Mission, load_mission
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
 
-DEFAULT_APP_TICK = 10.0
+PROCESSES = ("iMAVLink", "pNav", "pHelm")
+"""The ProcessConfig blocks a mission may hold: one per app of the companion."""
+
+
+def check_processes(mission: Mission) -> None:
+    """Refuse a ProcessConfig block no app reads (a misspelt ``pHlem`` would otherwise be
+    ignored, with every setting in it)."""
+    known = {name.lower() for name in PROCESSES}
+    for name, block in mission.processes.items():
+        if name.lower() not in known:
+            raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)})")
 
 
 @dataclass
@@ -41,17 +51,16 @@ class Companion:
         """Everything is configured (and the mission validated) before the link is opened."""
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
+        check_processes(mission)
         bus = Bus(clock)
         navigator = Navigator.from_mission(bus, mission)
         helm = Helm.from_mission(bus, mission)
-        app_tick = helm.block.get_float("AppTick", DEFAULT_APP_TICK)
-        if app_tick <= 0:
-            raise helm.block.require("AppTick").error("AppTick must be a positive rate in Hz")
-        bridge = MavlinkBridge.from_mission(bus, mission, connect=connect, connection=connection)
+        bridge = MavlinkBridge.from_mission(bus, mission, connect=connect, connection=connection,
+                                            max_rudder=helm.gains.max_rudder)
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
-        return cls(mission, bus, bridge, navigator, helm, Community(bus, apps), 1.0 / app_tick)
+        return cls(mission, bus, bridge, navigator, helm, Community(bus, apps), 1.0 / helm.app_tick)
 
     def tick(self, now: float) -> None:
         self.community.tick(now)

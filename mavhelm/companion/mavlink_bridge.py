@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.mission import Block, Mission, MissionError
-from mavhelm.geo import Origin
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.geodesy import Origin, mission_origin
+from mavhelm.core.mission import Block, Entry, Mission
+from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text
 
 ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
 ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
@@ -41,9 +42,62 @@ DEFAULT_STREAMS: dict[str, float] = {
 }
 
 
+MAX_STREAM_HZ = 50.0
+MIN_STREAM_HZ = 0.1
+
+
+class StreamRate(Kind):
+    """``MESSAGE_NAME@rate``: a MAVLink message of the ardupilotmega dialect and its rate in
+    Hz, 0 to switch it off or within [0.1, 50]."""
+
+    def describe(self) -> str:
+        return (f"MESSAGE_NAME@Hz, rate 0 (off) or in [{MIN_STREAM_HZ:g}, {MAX_STREAM_HZ:g}]")
+
+    def parse(self, entry: Entry) -> tuple[str, float]:
+        name, sep, rate_text = entry.value.partition("@")
+        name = name.strip().upper()
+        if not sep or not hasattr(mavlink, f"MAVLINK_MSG_ID_{name}"):
+            raise entry.error(f"Stream expects MESSAGE_NAME@rate_hz, got {entry.value!r}")
+        rate = Number(0.0, MAX_STREAM_HZ).parse_text(rate_text, entry, f"Stream {name} rate")
+        if 0.0 < rate < MIN_STREAM_HZ:
+            raise entry.error(f"Stream {name} rate must be 0 (off) or at least "
+                              f"{MIN_STREAM_HZ:g} Hz, got {rate_text.strip()}")
+        return name, rate
+
+
+MAVLINK_ID = Number(1, 255, integer=True)
+
+IMAVLINK_SCHEMA = Schema("iMAVLink", (
+    Param("Connect", Text(), "tcp:127.0.0.1:5760",
+          doc="the autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a serial device; "
+              "`mavhelm run --connect` overrides it"),
+    Param("Baud", Number(300, 12_000_000, integer=True), 57600, "bit/s",
+          "serial speed (serial devices only)"),
+    Param("SystemID", MAVLINK_ID, 1, doc="the companion's own MAVLink system id",
+          attr="system_id"),
+    Param("ComponentID", MAVLINK_ID, COMPANION_COMPONENT,
+          doc="the companion's component id (191: onboard computer)", attr="component_id"),
+    Param("TargetSystem", MAVLINK_ID, 1, doc="the autopilot's system id", attr="target_system"),
+    Param("TargetComponent", MAVLINK_ID, 1, doc="the autopilot's component id",
+          attr="target_component"),
+    Param("OnlineModes", ChoiceList(Choice(tuple(ROVER_MODE_NUMBERS))), ("GUIDED",),
+          doc="the helm drives only while the autopilot is armed in one of these",
+          attr="online_modes"),
+    Param("Actuation", Choice(("guided",), not_yet=("rc_override",)), "guided",
+          doc="how helm output reaches the autopilot: SET_ATTITUDE_TARGET in GUIDED"),
+    Param("MaxTurnRate", Number(0.0, 360.0, lo_open=True), 45.0, "deg/s",
+          "turn rate commanded at full rudder (MAXRUDDER)", attr="max_turn_rate"),
+    Param("LinkTimeOut", Number(1.0, 60.0), 3.0, "s",
+          "no autopilot HEARTBEAT for this long takes the helm offline", attr="link_timeout"),
+    Param("Stream", StreamRate(), [], repeat=True, attr="stream_rates",
+          doc="a telemetry rate to ask for, on top of the defaults "
+              "(" + ", ".join(f"{k}@{v:g}" for k, v in DEFAULT_STREAMS.items()) + ")"),
+))
+
+
 @dataclass
 class BridgeConfig:
-    """The ``iMAVLink`` ProcessConfig block."""
+    """The ``iMAVLink`` ProcessConfig block (see ``IMAVLINK_SCHEMA``) and the helm's MAXRUDDER."""
 
     connect: str = "tcp:127.0.0.1:5760"
     baud: int = 57600
@@ -59,52 +113,11 @@ class BridgeConfig:
     streams: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAMS))
 
     @classmethod
-    def from_block(cls, block: Block | None, helm: Block | None = None) -> BridgeConfig:
-        cfg = cls()
-        if helm is not None:
-            cfg.max_rudder = helm.get_float("MAXRUDDER", cfg.max_rudder)
-        if block is None:
-            return cfg
-        known = {
-            "connect", "baud", "systemid", "componentid", "targetsystem", "targetcomponent",
-            "onlinemodes", "actuation", "maxturnrate", "linktimeout", "stream", "apptick",
-            "commstick",
-        }
-        for e in block.entries:
-            if e.key.lower() not in known:
-                raise e.error(f"unknown iMAVLink setting {e.key}; expected one of {sorted(known)}")
-        cfg.connect = block.get("Connect", cfg.connect) or cfg.connect
-        cfg.baud = int(block.get_float("Baud", cfg.baud))
-        cfg.system_id = int(block.get_float("SystemID", cfg.system_id))
-        cfg.component_id = int(block.get_float("ComponentID", cfg.component_id))
-        cfg.target_system = int(block.get_float("TargetSystem", cfg.target_system))
-        cfg.target_component = int(block.get_float("TargetComponent", cfg.target_component))
-        cfg.max_turn_rate = block.get_float("MaxTurnRate", cfg.max_turn_rate)
-        cfg.link_timeout = block.get_float("LinkTimeOut", cfg.link_timeout)
-        modes = block.entry("OnlineModes")
-        if modes is not None:
-            names = tuple(m.strip().upper() for m in modes.value.split(",") if m.strip())
-            for name in names:
-                if name not in ROVER_MODE_NUMBERS:
-                    raise modes.error(
-                        f"unknown Rover mode {name}; expected some of {sorted(ROVER_MODE_NUMBERS)}"
-                    )
-            cfg.online_modes = names
-        actuation = block.entry("Actuation")
-        if actuation is not None:
-            if actuation.value.lower() != "guided":
-                raise actuation.error(
-                    f"Actuation {actuation.value!r} is not supported yet; expected 'guided'"
-                )
-        for e in block.all("Stream"):
-            name, sep, rate = e.value.partition("@")
-            name = name.strip().upper()
-            if not sep or not hasattr(mavlink, f"MAVLINK_MSG_ID_{name}"):
-                raise e.error(f"Stream expects MESSAGE_NAME@rate_hz, got {e.value!r}")
-            try:
-                cfg.streams[name] = float(rate)
-            except ValueError:
-                raise e.error(f"Stream rate must be a number, got {rate.strip()!r}") from None
+    def from_block(cls, block: Block | None, max_rudder: float = 20.0) -> BridgeConfig:
+        settings = IMAVLINK_SCHEMA.read(block or Block("ProcessConfig", "iMAVLink", "", 0))
+        rates = settings.pop("stream_rates")
+        cfg = cls(max_rudder=max_rudder, **settings)
+        cfg.streams.update(rates)
         return cfg
 
 
@@ -125,6 +138,7 @@ class MavlinkBridge:
         self.link_up = False
         self.online = False
         self.bad_packets = 0
+        self.refused_outputs = 0
         self.packets = 0
         self.ekf_position_ok: bool | None = None
         self._bad_packets_posted = 0
@@ -135,8 +149,9 @@ class MavlinkBridge:
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission, connect: str | None = None,
-                     connection: mavutil.mavfile | None = None) -> MavlinkBridge:
-        cfg = BridgeConfig.from_block(mission.process("iMAVLink"), mission.process("pHelm"))
+                     connection: mavutil.mavfile | None = None,
+                     max_rudder: float = 20.0) -> MavlinkBridge:
+        cfg = BridgeConfig.from_block(mission.process("iMAVLink"), max_rudder)
         if connect is not None:
             cfg.connect = connect
         return cls(bus, cfg, mission_origin(mission), connection)
@@ -262,11 +277,12 @@ class MavlinkBridge:
         desired = {m.name: m.value for m in mail if m.is_double}
         if "DESIRED_RUDDER" not in desired and "DESIRED_THRUST" not in desired:
             return
-        rudder = float(desired.get("DESIRED_RUDDER", 0.0))
-        thrust = float(desired.get("DESIRED_THRUST", 0.0))
+        rudder = self._guard("DESIRED_RUDDER", desired.get("DESIRED_RUDDER", 0.0),
+                             self.config.max_rudder)
+        thrust = self._guard("DESIRED_THRUST", desired.get("DESIRED_THRUST", 0.0), 100.0)
         yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.config.max_rudder,
                                                     self.config.max_turn_rate))
-        thrust_fraction = max(-1.0, min(1.0, thrust / 100.0))
+        thrust_fraction = thrust / 100.0
         boot_ms = int(max(0.0, now - (self._boot_time or now)) * 1000) & 0xFFFFFFFF
         self.conn.mav.set_attitude_target_send(
             boot_ms, self.config.target_system, self.config.target_component,
@@ -274,6 +290,16 @@ class MavlinkBridge:
             thrust_fraction)
         self.output.notify("AP_CMD_YAW_RATE", yaw_rate)
         self.output.notify("AP_CMD_THRUST", thrust_fraction)
+
+    def _guard(self, name: str, value: float | str, limit: float) -> float:
+        """The last line of defence: a demand that is not a finite number within ±limit is
+        never sent; the safe value 0 (no turn, no thrust) goes instead, and it is reported."""
+        if isinstance(value, float) and math.isfinite(value) and abs(value) <= limit:
+            return value
+        self.refused_outputs += 1
+        self.output.notify("MAVLINK_OUTPUT_REFUSED",
+                           f"{name}={value} is not a finite number within ±{limit:g}: sent 0")
+        return 0.0
 
     def close(self) -> None:
         self.conn.close()
@@ -332,17 +358,6 @@ def read_available(conn: mavutil.mavfile, chunk: int = 65536) -> list[mavlink.MA
             messages.extend(got)
         if not data:
             return messages
-
-
-def mission_origin(mission: Mission) -> Origin:
-    lat = mission.globals.entry("LatOrigin")
-    lon = mission.globals.entry("LongOrigin")
-    if lat is None or lon is None:
-        where = lat or lon
-        if where is not None:
-            raise where.error("LatOrigin and LongOrigin must both be given")
-        raise MissionError(mission.path, 1, "mission needs LatOrigin and LongOrigin")
-    return Origin(lat.as_float(), lon.as_float())
 
 
 def open_connection(config: BridgeConfig) -> mavutil.mavfile:

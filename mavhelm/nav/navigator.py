@@ -14,11 +14,13 @@ from __future__ import annotations
 import math
 from typing import Final
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.mission import Block, Mission, MissionError
-from mavhelm.geo import heading_to_yaw, yaw_to_heading
-from mavhelm.nav.priority_queue import PriorityQueue
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.geodesy import heading_to_yaw, yaw_to_heading
+from mavhelm.core.mission import Block, Mission, MissionError
+from mavhelm.core.names import NO_SOURCE
+from mavhelm.core.params import Param, Schema
+from mavhelm.nav.priority_queue import PriorityQueue, QueueSpec
 
 QUEUE_KEYS: Final = (
     "X",
@@ -35,12 +37,13 @@ QUEUE_KEYS: Final = (
 """Keys of a pNav block that are priority queues. YAW is radians (yaw = −heading), HEADING
 degrees clockwise from north; configure one of the two, the navigator posts both."""
 
-IGNORED_PREFIXES: Final = ("SENSOR_", "EKF_", "LSQ_", "NAV_LOG", "FIXED")
-"""pNav settings for the filters (not built yet): accepted so full MOOS pNav blocks load."""
-
-COMMON_KEYS: Final = frozenset({"APPTICK", "COMMSTICK"})
-
-NO_SOURCE: Final = "NONE"
+NAV_SCHEMA = Schema(
+    "pNav",
+    tuple(Param(key.title(), QueueSpec(), None, doc=f"priority queue feeding NAV_{key}",
+                attr=key.lower()) for key in QUEUE_KEYS),
+    unsupported=("SENSOR_", "EKF_", "LSQ_", "NAV_LOG", "FIXED"),
+)
+"""A pNav block is its priority queues; the filters' settings are refused until they exist."""
 
 _UNSET: Final = object()
 
@@ -70,35 +73,15 @@ class Navigator(App):
 
     @classmethod
     def from_block(cls, bus: Bus, block: Block) -> Navigator:
-        """Build from a ``ProcessConfig = pNav`` block; unknown settings are located errors."""
-        queues: dict[str, PriorityQueue] = {}
-        lines: dict[str, int] = {}
-        for entry in block.entries:
-            key = entry.key.upper()
-            if key in QUEUE_KEYS:
-                if key in queues:
-                    raise entry.error(
-                        f"{entry.key}: priority queue already defined at line {lines[key]}"
-                    )
-                other = {"YAW": "HEADING", "HEADING": "YAW"}.get(key, "")
-                if other in queues:
-                    raise entry.error(
-                        f"{entry.key}: a {other.title()} queue is already defined at line"
-                        f" {lines[other]}; configure Yaw or Heading, not both"
-                    )
-                queues[key] = PriorityQueue.parse(entry)
-                lines[key] = entry.line
-            elif key in COMMON_KEYS or key.startswith(IGNORED_PREFIXES):
-                continue
-            else:
-                raise entry.error(
-                    f"unknown pNav setting {entry.key!r}: expected a priority queue"
-                    f" ({', '.join(k.title() for k in QUEUE_KEYS)} = SOURCE @ timeout, …)"
-                    " or a SENSOR_/EKF_/LSQ_/FIXED/NAV_LOG setting"
-                )
+        """Build from a ``ProcessConfig = pNav`` block; every refusal is a located error."""
+        settings = NAV_SCHEMA.read(block)
+        if settings["yaw"] is not None and settings["heading"] is not None:
+            later = max(block.require("Yaw"), block.require("Heading"), key=lambda e: e.line)
+            raise later.error("configure a Yaw queue or a Heading queue, not both")
+        queues = [settings[key.lower()] for key in QUEUE_KEYS if settings[key.lower()]]
         if not queues:
             raise block.error("pNav needs at least one priority queue, e.g. X = GPS @ 2.0")
-        return cls(bus, list(queues.values()))
+        return cls(bus, queues)
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission) -> Navigator:

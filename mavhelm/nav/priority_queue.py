@@ -12,8 +12,10 @@ import math
 import re
 from dataclasses import dataclass
 
-from mavhelm.companion.mission import Entry
+from mavhelm.core.mission import Entry
+from mavhelm.core.params import Kind
 
+MAX_TIMEOUT = 3600.0
 DEFAULT_TIMEOUT = 3.0
 """Seconds a source may stay silent when its entry has no ``@timeout`` (the original pNav's)."""
 
@@ -63,10 +65,10 @@ class PriorityQueue:
                     timeout = float(timeout_text)
                 except ValueError:
                     timeout = math.nan
-                if not (math.isfinite(timeout) and timeout > 0):
+                if not (math.isfinite(timeout) and 0 < timeout <= MAX_TIMEOUT):
                     raise entry.error(
-                        f"{entry.key}: the timeout of {name} must be a number of seconds > 0,"
-                        f" got {timeout_text!r}"
+                        f"{entry.key}: the timeout of {name} must be seconds in"
+                        f" (0, {MAX_TIMEOUT:g}], got {timeout_text!r}"
                     )
             sources.append(Source(name, timeout))
         if not sources:
@@ -109,3 +111,14 @@ class PriorityQueue:
         self._last[source] = time
         self._values[source] = value
         return self.current_source(time) == source
+
+
+class QueueSpec(Kind):
+    """The schema kind of a priority queue line: parses to a :class:`PriorityQueue`."""
+
+    def describe(self) -> str:
+        return (f"SOURCE @ timeout, … best first; timeouts in seconds in (0, {MAX_TIMEOUT:g}],"
+                f" default {DEFAULT_TIMEOUT:g}")
+
+    def parse(self, entry: Entry) -> PriorityQueue:
+        return PriorityQueue.parse(entry)

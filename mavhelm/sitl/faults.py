@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mavhelm.errors import LocatedError
+from mavhelm.core.errors import LocatedError
 
 #: Length of the window of an instant fault written ``at T`` with no ``for D``.
 INSTANT_S = 1.0

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from pymavlink import mavutil
 
-from mavhelm.companion.clock import SimClock
+from mavhelm.core.clock import SimClock
 
 
 class LockstepError(RuntimeError):

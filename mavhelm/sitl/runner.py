@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Any
 
-from mavhelm.geo import Origin
+from mavhelm.sitl.flat_earth import Origin
 
 TICK = 0.01  # wall seconds between simulator steps
 

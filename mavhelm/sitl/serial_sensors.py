@@ -29,9 +29,9 @@ from typing import Protocol
 
 import numpy as np
 
-from mavhelm.geo import Origin
 from mavhelm.sitl import nmea
 from mavhelm.sitl.faults import Scenario
+from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.truth import Truth
 
 #: Sound speed (m/s) used for acoustic travel times.

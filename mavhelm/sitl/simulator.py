@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.geo import Origin
 from mavhelm.sitl import autopilot as ap
 from mavhelm.sitl import boat, rover
 from mavhelm.sitl.estimator import Estimator
+from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.links import Link, LinkHub
 from mavhelm.sitl.telemetry import HEARTBEAT, Telemetry
 from mavhelm.sitl.truth import Truth

@@ -14,9 +14,9 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as M
 
-from mavhelm.geo import Origin
 from mavhelm.sitl import autopilot as ap
 from mavhelm.sitl.estimator import Estimator
+from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.truth import Truth
 
 HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT

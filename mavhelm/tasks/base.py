@@ -1,17 +1,18 @@
 """The Task base: everything spec Table 1 gives every task, so a task type only says what it does.
 
-Modelled on MOOS's CMOOSBehaviour (and py_trees' Behaviour hooks): the base owns the name,
-flags, time-out, initial state, priority, PID bookkeeping and the three ways a task ends
-(spec 1.1.1). A subclass overrides a few hooks:
+Modelled on MOOS's IvPBehavior (and py_trees' Behaviour hooks): the base owns the name, flags,
+time-out, initial state, priority, PID bookkeeping and the three ways a task ends (spec 1.1.1).
+A task type declares its own settings once, in ``params`` (see ``mavhelm.core.params``); the
+base reads the block against the base properties plus those, refusing unknown keys, missing
+required ones and every non-finite or out-of-range value, and sets each as an attribute.
+A subclass may then override a few hooks:
 
-- ``set_param(key, entry) -> bool``: its own parameters (key lower-case);
-- ``check(block)``: required parameters, once all entries are read;
+- ``check(block)``: constraints between settings, once all are read;
 - ``needs() -> set[str]``: variables it starves without;
 - ``initialise(now)``: going active;
 - ``update(nav, now) -> Votes | None``: one online tick; call ``self.complete()`` on success;
 - ``terminate(cause)``: it has ended.
 
-A subclass sets its own defaults before calling ``super().__init__``, which reads the block.
 Tasks never touch the bus: what they want posted goes into an outbox the helm drains
 (spec 1.1: each task thinks it has its own comms client).
 """
@@ -21,30 +22,42 @@ from __future__ import annotations
 import enum
 from typing import ClassVar
 
-from mavhelm.companion.bus import Message
-from mavhelm.companion.mission import Block, Entry
-from mavhelm.geo import wrap_degrees, yaw_to_heading
+from mavhelm.core.bus import Message
+from mavhelm.core.geodesy import wrap_degrees, yaw_to_heading
+from mavhelm.core.mission import Block
+from mavhelm.core.names import NAV_HEADING, NAV_YAW, NO_SOURCE
+from mavhelm.core.params import Boolean, Choice, Names, Number, Param, Schema, Seconds, Word
 from mavhelm.tasks.pid import HelmGains, ScalarPID
 
 Votes = dict[str, float]
 """Actuator name (RUDDER, THRUST, ELEVATOR or an auxiliary) → desired value."""
 
 STARVATION_S = 10.0
-HEADING = "NAV_HEADING"
+HEADING = NAV_HEADING
 
 COMPLETE = "complete"
 TIMEOUT = "timeout"
 STARVED = "starved"
 
-_BASE_KEYS = (
-    "Name",
-    "StartFlag",
-    "FinishFlag",
-    "EventFlag",
-    "TimeOut",
-    "InitialState",
-    "Priority",
-    "LOGPID",
+THRUST = Number(-100.0, 100.0)
+"""A thrust vote in percent of full ahead (negative astern)."""
+
+BASE_PARAMS: tuple[Param, ...] = (
+    Param("Name", Word(), None, doc="the task's name in flags, logs and messages "
+          "(default: the task type)"),
+    Param("Priority", Number(1, 1000, integer=True), 3,
+          doc="1 is the most important; 0 is reserved for EndMission"),
+    Param("StartFlag", Names(), [], repeat=True, attr="start_flags",
+          doc="variables that start the task when posted"),
+    Param("FinishFlag", Names(), [], repeat=True, attr="finish_flags",
+          doc="posted when the task ends (value: DONE or the reason)"),
+    Param("EventFlag", Names(), [], repeat=True, attr="event_flags",
+          doc="posted on an event that does not end the task"),
+    Param("TimeOut", Seconds(), 100.0, "s", "the longest the task may run", attr="timeout"),
+    Param("InitialState", Choice(("ON", "OFF")), None, attr="initial_state",
+          doc="ON runs from the mission start; default ON unless the task has a StartFlag"),
+    Param("LOGPID", Boolean(), False, attr="log_pid",
+          doc="post the heading controller's terms as <NAME>_YAW_PID"),
 )
 
 
@@ -54,13 +67,7 @@ class State(enum.Enum):
     DONE = "done"
 
 
-NO_SOURCE = "NONE"
-_SAME_QUANTITY = {"NAV_YAW": "NAV_HEADING", "NAV_HEADING": "NAV_YAW"}
-
-
-def source_variable(name: str) -> str:
-    """Where pNav declares which source feeds a NAV variable (``NAV_X`` → ``NAV_X_SOURCE``)."""
-    return f"{name}_SOURCE"
+_SAME_QUANTITY = {NAV_YAW: NAV_HEADING, NAV_HEADING: NAV_YAW}
 
 
 class NavState:
@@ -116,54 +123,45 @@ class NavState:
         return self._values.get("NAV_Y")
 
 
-def parse_flags(entry: Entry) -> list[str]:
-    """A comma-separated flag list; an empty item is a typo, not a flag."""
-    flags = [f.strip() for f in entry.value.split(",")]
-    if not flags or any(not f for f in flags):
-        raise entry.error(
-            f"{entry.key} expects comma-separated variable names, got {entry.value!r}"
-        )
-    return flags
-
-
-def parse_bool(entry: Entry) -> bool:
-    v = entry.value.strip().lower()
-    if v in ("true", "yes", "1", "on"):
-        return True
-    if v in ("false", "no", "0", "off"):
-        return False
-    raise entry.error(f"{entry.key} expects true or false, got {entry.value!r}")
-
-
-def parse_thrust(entry: Entry) -> float:
-    thrust = entry.as_float()
-    if abs(thrust) > 100.0:
-        raise entry.error(f"{entry.key} is a percentage in [-100, 100], got {entry.value}")
-    return thrust
-
-
 class Task:
     """Base of every helm task; see the module docstring for the hooks."""
 
     keyword: ClassVar[str] = "Task"
-    default_priority: ClassVar[int] = 3
-    default_timeout: ClassVar[float | None] = 100.0
-    default_initial_on: ClassVar[bool | None] = None
-    """None: ON unless the task has a StartFlag (what a mission without InitialState means)."""
-    params: ClassVar[tuple[str, ...]] = ()
-    """Task-specific parameter names, for the 'unknown parameter' message."""
+    summary: ClassVar[str] = ""
+    """One line for the parameter reference: what the task does and when it ends."""
+    params: ClassVar[tuple[Param, ...]] = ()
+    """This type's own settings; a name already declared by a base narrows it."""
+
+    @classmethod
+    def schema(cls) -> Schema:
+        """The base properties and every class's ``params`` from the base down."""
+        declared: list[Param] = list(BASE_PARAMS)
+        for klass in reversed(cls.__mro__):
+            declared.extend(klass.__dict__.get("params", ()))
+        return Schema(f"a {cls.keyword} task", tuple(declared))
 
     def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
         self.block = block
         self.gains = gains or HelmGains()
-        self.name = self.keyword
+        self.name: str | None = None
         self.start_flags: list[str] = []
         self.finish_flags: list[str] = []
         self.event_flags: list[str] = []
-        self.timeout: float | None = self.default_timeout
-        self.initial_on: bool | None = self.default_initial_on
-        self.priority = self.default_priority
+        self.timeout: float | None = None
+        self.initial_state: str | None = None
+        self.priority = 0
         self.log_pid = False
+        label = block.get("Name") or self.keyword
+        self.schema().apply(self, block, owner=f"{self.keyword} task {label}")
+        if self.name is None:
+            self.name = self.keyword
+        self.check(block)
+        self.initial_on: bool = (not self.start_flags if self.initial_state is None
+                                 else self.initial_state == "ON")
+        if not self.initial_on and not self.start_flags:
+            raise block.error(
+                f"task {self.name} is InitialState OFF with no StartFlag, so it can never run"
+            )
         self.state = State.IDLE
         self.start_time: float | None = None
         self.end_cause: str | None = None
@@ -171,69 +169,8 @@ class Task:
         self._outbox: list[tuple[str, float | str]] = []
         self._completed = False
         self._holding = False
-        for entry in block.entries:
-            key = entry.key.lower()
-            if not self._set_base(key, entry) and not self.set_param(key, entry):
-                known = ", ".join(_BASE_KEYS + self.params)
-                raise entry.error(
-                    f"unknown parameter {entry.key!r} for a {self.keyword} task (known: {known})"
-                )
-        self.check(block)
-        if self.initial_on is None:
-            self.initial_on = not self.start_flags
-        if not self.initial_on and not self.start_flags:
-            raise block.error(
-                f"task {self.name} is InitialState OFF with no StartFlag, so it can never run"
-            )
-
-    def _set_base(self, key: str, entry: Entry) -> bool:
-        if key == "name":
-            name = entry.value.strip()
-            if not name or any(c.isspace() or c in ",:=" for c in name):
-                raise entry.error(f"Name must be one word without ',', ':' or '=', got {name!r}")
-            self.name = name
-        elif key == "startflag":
-            self.start_flags += parse_flags(entry)
-        elif key == "finishflag":
-            self.finish_flags += parse_flags(entry)
-        elif key == "eventflag":
-            self.event_flags += parse_flags(entry)
-        elif key == "timeout":
-            self.timeout = self.parse_timeout(entry)
-        elif key == "initialstate":
-            state = entry.value.strip().upper()
-            if state not in ("ON", "OFF"):
-                raise entry.error(f"InitialState expects ON or OFF, got {entry.value!r}")
-            self.initial_on = state == "ON"
-        elif key == "priority":
-            self.priority = self.parse_priority(entry)
-        elif key == "logpid":
-            self.log_pid = parse_bool(entry)
-        else:
-            return False
-        return True
-
-    def parse_timeout(self, entry: Entry) -> float | None:
-        if entry.value.strip().upper() == "NEVER":
-            return None
-        t = entry.as_float()
-        if t <= 0:
-            raise entry.error(f"TimeOut must be positive seconds or NEVER, got {entry.value}")
-        return t
-
-    def parse_priority(self, entry: Entry) -> int:
-        p = entry.as_float()
-        if not p.is_integer() or p < 1:
-            raise entry.error(
-                f"Priority must be a whole number >= 1 (0 is EndMission's), got {entry.value}"
-            )
-        return int(p)
 
     # ---- hooks for subclasses ------------------------------------------------------------
-
-    def set_param(self, key: str, entry: Entry) -> bool:
-        """Take a task-specific parameter (key lower-case); False if it is not one."""
-        return False
 
     def check(self, block: Block) -> None:
         """Refuse a block that misses a required parameter (raise ``block.error``)."""

@@ -2,41 +2,30 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block, Entry
-from mavhelm.tasks.base import NavState, Task, Votes
-from mavhelm.tasks.pid import HelmGains
+from mavhelm.core.params import Fixed, Number, Param
+from mavhelm.tasks.base import THRUST, NavState, Task, Votes
+
+RUDDER_DEGREES = Number(-90.0, 90.0)
 
 
 class EndMission(Task):
     """Never starves, never times out, never completes: the mission is over."""
 
     keyword = "EndMission"
-    default_priority = 0
-    default_timeout = None
-    params = ("EndRudder", "EndThrust", "EndElevator")
-
-    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
-        self.end_votes: Votes = {"RUDDER": 0.0, "THRUST": 0.0, "ELEVATOR": 0.0}
-        super().__init__(block, gains)
-
-    def set_param(self, key: str, entry: Entry) -> bool:
-        actuator = {"endrudder": "RUDDER", "endthrust": "THRUST", "endelevator": "ELEVATOR"}.get(
-            key
-        )
-        if actuator is None:
-            return False
-        self.end_votes[actuator] = entry.as_float()
-        return True
-
-    def parse_timeout(self, entry: Entry) -> float | None:
-        if entry.value.strip().upper() != "NEVER":
-            raise entry.error("EndMission never times out; remove TimeOut or write NEVER")
-        return None
-
-    def parse_priority(self, entry: Entry) -> int:
-        if entry.value.strip() not in ("0", "0.0"):
-            raise entry.error(f"EndMission always has priority 0, got {entry.value}")
-        return 0
+    summary = "priority 0: holds every actuator at its end value and locks out all other tasks"
+    params = (
+        Param("Priority", Fixed("0", 0, "EndMission always has priority 0"), 0,
+              doc="always 0: locks out every other task"),
+        Param("TimeOut", Fixed("NEVER", None, "EndMission never times out; remove TimeOut or "
+                                "write NEVER"), None, "s", "always NEVER", attr="timeout"),
+        Param("EndRudder", RUDDER_DEGREES, 0.0, "deg", "rudder held after the mission"),
+        Param("EndThrust", THRUST, 0.0, "%", "thrust held after the mission"),
+        Param("EndElevator", RUDDER_DEGREES, 0.0, "deg", "elevator held after the mission"),
+    )
+    end_rudder: float
+    end_thrust: float
+    end_elevator: float
 
     def update(self, nav: NavState, now: float) -> Votes | None:
-        return dict(self.end_votes)
+        return {"RUDDER": self.end_rudder, "THRUST": self.end_thrust,
+                "ELEVATOR": self.end_elevator}

@@ -2,33 +2,25 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block, Entry
+from mavhelm.core.params import Number, Param
 from mavhelm.tasks.base import HEADING, NavState, Votes
-from mavhelm.tasks.pid import HelmGains
 from mavhelm.tasks.steering import SteeringTask
 
 
 class ConstantHeading(SteeringTask):
     keyword = "ConstantHeading"
-    params = ("Heading", *SteeringTask.params)
+    summary = "holds a compass heading; ends on its TimeOut"
+    params = (
+        Param("Heading", Number(-360.0, 360.0), unit="deg",
+              doc="compass heading to hold, clockwise from true north"),
+    )
+    heading: float
 
-    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
-        self.heading: float | None = None
-        super().__init__(block, gains)
-
-    def set_param(self, key: str, entry: Entry) -> bool:
-        if key == "heading":
-            self.heading = entry.as_float() % 360.0
-            return True
-        return super().set_param(key, entry)
-
-    def check(self, block: Block) -> None:
-        if self.heading is None:
-            raise block.error(f"ConstantHeading task {self.name} needs Heading (degrees)")
+    def check(self, block) -> None:
+        self.heading %= 360.0
 
     def needs(self) -> set[str]:
         return {HEADING}
 
     def update(self, nav: NavState, now: float) -> Votes | None:
-        assert self.heading is not None
         return self.drive(self.heading, nav)

@@ -7,17 +7,28 @@ not lost) but none is run and no ``DESIRED_*`` is posted: the human has the vehi
 
 from __future__ import annotations
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus, Message
-from mavhelm.companion.mission import Block, Mission, MissionError
-from mavhelm.tasks.base import HEADING, NavState, Task, Votes, source_variable
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.mission import Block, Mission, MissionError
+from mavhelm.core.names import HELM_ONLINE, MAIN_ACTUATORS, NAV_YAW, desired, source_variable
+from mavhelm.core.params import Number, Param, Schema, Text
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.overall_timeout import OverallTimeOut
-from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.pid import GAIN_PARAMS, HelmGains
 from mavhelm.tasks.registry import build_task
 
-ONLINE_VAR = "HELM_ONLINE"
-MAIN_ACTUATORS = ("RUDDER", "THRUST", "ELEVATOR")
+ONLINE_VAR = HELM_ONLINE
+
+HELM_SCHEMA = Schema("pHelm", (
+    Param("AppTick", Number(1.0, 50.0), 10.0, "Hz",
+          "how often the companion ticks (link, nav, helm, output); GUIDED needs >= 1 Hz",
+          attr="app_tick"),
+    Param("TaskFile", Text(), None, doc="a .hoof file of Task blocks, relative to the mission",
+          attr="task_file"),
+    *GAIN_PARAMS,
+))
+"""The pHelm block's own settings (its Task blocks are read by the task types' schemas)."""
 
 
 class Helm(App):
@@ -28,7 +39,9 @@ class Helm(App):
     def __init__(self, bus: Bus, block: Block, task_blocks: list[Block]) -> None:
         super().__init__(bus)
         self.block = block
-        self.gains = HelmGains.from_block(block)
+        settings = HELM_SCHEMA.read(block)
+        self.gains = HelmGains.from_values(settings)
+        self.app_tick: float = settings["app_tick"]
         self.tasks: list[Task] = []
         seen: dict[str, Block] = {}
         for tb in task_blocks:
@@ -79,7 +92,7 @@ class Helm(App):
             subs.update(t.needs())
             subs.update(source_variable(name) for name in t.needs())
         if HEADING in subs:
-            subs.update(("NAV_YAW", source_variable("NAV_YAW")))
+            subs.update((NAV_YAW, source_variable(NAV_YAW)))
         return subs
 
     def on_mail(self, mail: list[Message], now: float) -> None:
@@ -169,7 +182,7 @@ class Helm(App):
             limit = limits.get(actuator)
             if limit is not None:
                 value = max(-limit, min(limit, value))
-            self.notify(f"DESIRED_{actuator}", value)
+            self.notify(desired(actuator), value)
         owner = self.last_winners.get("RUDDER")
         self._set_rudder_owner(owner[1].name if owner else "none")
 

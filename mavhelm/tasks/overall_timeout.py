@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block, Entry
+from mavhelm.core.mission import Block
+from mavhelm.core.params import Choice, Param, Seconds
 from mavhelm.tasks.base import Task
-from mavhelm.tasks.pid import HelmGains
 
 
 class OverallTimeOut(Task):
@@ -15,22 +15,17 @@ class OverallTimeOut(Task):
     """
 
     keyword = "OverallTimeOut"
-    default_initial_on = True
-
-    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
-        self._timeout_given = False
-        super().__init__(block, gains)
-
-    def parse_timeout(self, entry: Entry) -> float | None:
-        timeout = super().parse_timeout(entry)
-        if timeout is None:
-            raise entry.error("an OverallTimeOut with TimeOut = NEVER would never end the mission")
-        self._timeout_given = True
-        return timeout
+    summary = "limits the whole mission: on from the start, ends only by timing out"
+    params = (
+        Param("TimeOut",
+              Seconds(never=False, never_reason="an OverallTimeOut with TimeOut = NEVER "
+                                                "would never end the mission"),
+              unit="s", doc="the whole mission's limit", attr="timeout"),
+        Param("InitialState", Choice(("ON", "OFF")), "ON", attr="initial_state",
+              doc="ON: the clock runs from the mission start"),
+    )
 
     def check(self, block: Block) -> None:
-        if not self._timeout_given:
-            raise block.error(f"OverallTimeOut task {self.name} needs TimeOut (seconds)")
         if not self.finish_flags:
             raise block.error(
                 f"OverallTimeOut task {self.name} needs a FinishFlag (e.g. the EndMission "

@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from mavhelm.companion.mission import Block
-from mavhelm.geo import wrap_degrees
+from mavhelm.core.geodesy import wrap_degrees
+from mavhelm.core.params import Number, Param
 
 FIR_TAPS = 5
 
@@ -94,25 +94,38 @@ class ScalarPID:
         )
 
 
-_GAIN_KEYS = {
-    "yaw_pid_kp": "yaw_kp",
-    "yaw_pid_kd": "yaw_kd",
-    "yaw_pid_ki": "yaw_ki",
-    "yaw_pid_integral_limit": "yaw_integral_limit",
-    "z_to_pitch_pid_kp": "z_to_pitch_kp",
-    "z_to_pitch_pid_kd": "z_to_pitch_kd",
-    "z_to_pitch_pid_ki": "z_to_pitch_ki",
-    "z_to_pitch_pid_integral_limit": "z_to_pitch_integral_limit",
-    "pitch_pid_kp": "pitch_kp",
-    "pitch_pid_kd": "pitch_kd",
-    "pitch_pid_ki": "pitch_ki",
-    "pitch_pid_integral_limit": "pitch_integral_limit",
-    "maxrudder": "max_rudder",
-    "maxthrust": "max_thrust",
-    "maxelevator": "max_elevator",
-    "maxpitch": "max_pitch",
-}
-_GAIN_PREFIXES = ("yaw_pid_", "z_to_pitch_pid_", "pitch_pid_")
+GAIN = Number(0.0, 1000.0)
+"""A PID gain or integral limit: finite and not negative (a negative gain steers away)."""
+ANGLE_LIMIT = Number(0.0, 90.0, lo_open=True)
+"""An actuator or attitude limit in degrees: positive, at most a right angle."""
+
+
+def _pid_params(prefix: str, attr: str, what: str, defaults: tuple[float, ...]) -> list[Param]:
+    kp, kd, ki, limit = defaults
+    return [
+        Param(f"{prefix}_PID_KP", GAIN, kp, doc=f"{what}: proportional gain",
+              attr=f"{attr}_kp"),
+        Param(f"{prefix}_PID_KD", GAIN, kd, doc=f"{what}: derivative gain", attr=f"{attr}_kd"),
+        Param(f"{prefix}_PID_KI", GAIN, ki, doc=f"{what}: integral gain", attr=f"{attr}_ki"),
+        Param(f"{prefix}_PID_INTEGRAL_LIMIT", GAIN, limit,
+              doc=f"{what}: bound on the integral term's output", attr=f"{attr}_integral_limit"),
+    ]
+
+
+GAIN_PARAMS: tuple[Param, ...] = (
+    *_pid_params("YAW", "yaw", "heading controller (deg of rudder per deg of error)",
+                 (0.5, 0.2, 0.0, 2.0)),
+    *_pid_params("Z_TO_PITCH", "z_to_pitch", "depth-to-pitch controller", (0.5, 0.0, 0.0, 0.0)),
+    *_pid_params("PITCH", "pitch", "pitch-to-elevator controller", (0.5, 0.0, 0.0, 0.0)),
+    Param("MAXRUDDER", ANGLE_LIMIT, 20.0, "deg", "rudder limit; full rudder = MaxTurnRate",
+          attr="max_rudder"),
+    Param("MAXTHRUST", Number(0.0, 100.0, lo_open=True), 100.0, "%", "thrust limit",
+          attr="max_thrust"),
+    Param("MAXELEVATOR", ANGLE_LIMIT, 30.0, "deg", "elevator limit", attr="max_elevator"),
+    Param("MAXPITCH", ANGLE_LIMIT, 10.0, "deg", "pitch limit of the depth controller",
+          attr="max_pitch"),
+)
+"""The pHelm block's controller settings, shared by every task (one ``HelmGains``)."""
 
 
 @dataclass
@@ -137,27 +150,9 @@ class HelmGains:
     max_pitch: float = 10.0
 
     @classmethod
-    def from_block(cls, block: Block) -> HelmGains:
-        """Read the gains; refuse negative values and misspelt gain keys.
-
-        Other keys (AppTick, TaskFile, …) belong to other readers of the block and pass.
-        """
-        gains = cls()
-        for entry in block.entries:
-            key = entry.key.lower()
-            attr = _GAIN_KEYS.get(key)
-            if attr is None:
-                if key.startswith(_GAIN_PREFIXES):
-                    known = ", ".join(k.upper() for k in _GAIN_KEYS)
-                    raise entry.error(f"unknown helm gain {entry.key!r} (known: {known})")
-                continue
-            value = entry.as_float()
-            if value < 0:
-                raise entry.error(f"{entry.key} must not be negative, got {entry.value}")
-            if attr.startswith("max_") and value == 0:
-                raise entry.error(f"{entry.key} must be positive, got {entry.value}")
-            setattr(gains, attr, value)
-        return gains
+    def from_values(cls, values: dict[str, object]) -> HelmGains:
+        """From a pHelm block read by a schema holding ``GAIN_PARAMS`` (other keys ignored)."""
+        return cls(**{p.attribute: values[p.attribute] for p in GAIN_PARAMS})
 
     def yaw_pid(self) -> ScalarPID:
         """A fresh heading controller: error in degrees, output rudder in degrees."""

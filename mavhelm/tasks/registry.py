@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block
+from mavhelm.core.mission import Block
 from mavhelm.tasks.base import Task
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.heading import ConstantHeading

@@ -6,23 +6,16 @@ so are the track-following tasks of the spec (TrackLine, Orbit, XYPattern, Surve
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Block, Entry
-from mavhelm.tasks.base import NavState, Task, Votes, parse_thrust
-from mavhelm.tasks.pid import HelmGains
+from mavhelm.core.params import Param
+from mavhelm.tasks.base import THRUST, NavState, Task, Votes
 
 
 class SteeringTask(Task):
-    params = ("Thrust",)
-
-    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
-        self.thrust: float | None = None
-        super().__init__(block, gains)
-
-    def set_param(self, key: str, entry: Entry) -> bool:
-        if key == "thrust":
-            self.thrust = parse_thrust(entry)
-            return True
-        return False
+    params = (
+        Param("Thrust", THRUST, None, "%",
+              "thrust vote while the task runs; without it the task steers only"),
+    )
+    thrust: float | None
 
     def drive(self, heading: float, nav: NavState) -> Votes:
         """Votes for RUDDER towards ``heading`` (degrees) and, if the task has one, THRUST."""

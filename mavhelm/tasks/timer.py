@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mavhelm.companion.mission import Entry
+from mavhelm.core.params import Param, Seconds
 from mavhelm.tasks.base import Task
 
 
@@ -10,9 +10,10 @@ class Timer(Task):
     """Votes on nothing, needs nothing; ends by its TimeOut (cause ``timeout``), as in MOOS."""
 
     keyword = "Timer"
-
-    def parse_timeout(self, entry: Entry) -> float | None:
-        timeout = super().parse_timeout(entry)
-        if timeout is None:
-            raise entry.error("a Timer with TimeOut = NEVER would never finish")
-        return timeout
+    summary = "waits, then posts its FinishFlags (also written TimeOut); ends on its TimeOut"
+    params = (
+        Param("TimeOut",
+              Seconds(never=False,
+                      never_reason="a Timer with TimeOut = NEVER would never finish"),
+              100.0, "s", "how long to wait", attr="timeout"),
+    )

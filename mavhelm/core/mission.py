@@ -7,10 +7,12 @@ Every entry remembers its file and line, so anything that rejects a value can sa
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mavhelm.errors import LocatedError
+from mavhelm.core.errors import LocatedError
 
 
 class MissionError(LocatedError):
@@ -274,9 +276,15 @@ class _Parser:
         if not path.is_absolute():
             path = Path(self.file).parent / path
         try:
-            text = path.read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise entry.error(f"cannot read TaskFile {str(path)!r}: {exc.strerror}") from None
+            if path.resolve() == Path(self.file).resolve():
+                raise entry.error("TaskFile names this mission file itself; "
+                                  "name a .hoof file of Task blocks")
+        except OSError:
+            pass
+        try:
+            text = read_text_file(path)
+        except _Unreadable as exc:
+            raise entry.error(f"cannot read TaskFile {str(path)!r}: {exc}") from None
         return parse_tasks(text, str(path))
 
 
@@ -294,12 +302,59 @@ def parse_tasks(text: str, file: str) -> list[Block]:
     return parser.tasks
 
 
+MAX_FILE_BYTES = 1 << 20
+"""A mission or TaskFile larger than 1 MiB is refused: no hand-written mission comes close,
+and reading a mistaken path (a log, a disk image) must not exhaust the companion's memory."""
+
+
+class _Unreadable(Exception):
+    """Why a mission or TaskFile path cannot be read, in a user's words."""
+
+
+def read_text_file(path: str | Path, limit: int = MAX_FILE_BYTES) -> str:
+    """The text of a regular file of at most ``limit`` bytes.
+
+    Opened without blocking and checked before reading, so a FIFO cannot hang the helm, a
+    device (``/dev/zero``, a serial port) cannot fill memory and a directory gets a plain
+    answer. Bytes that are not UTF-8 become U+FFFD, which the parser then refuses in place.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        raise _Unreadable(exc.strerror or str(exc)) from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise _Unreadable("it is a directory, not a file")
+        if stat.S_ISFIFO(mode):
+            raise _Unreadable("it is a pipe (FIFO), not a regular file")
+        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+            raise _Unreadable("it is a device, not a regular file")
+        if not stat.S_ISREG(mode):
+            raise _Unreadable("it is not a regular file")
+        chunks: list[bytes] = []
+        size = 0
+        while size <= limit:
+            chunk = os.read(fd, limit + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        if size > limit:
+            raise _Unreadable(f"it is larger than {limit // 1024} KiB")
+    except OSError as exc:
+        raise _Unreadable(exc.strerror or str(exc)) from None
+    finally:
+        os.close(fd)
+    return b"".join(chunks).decode("utf-8", errors="replace")
+
+
 def _read(path: str | Path) -> tuple[str, str]:
     file = str(path)
     try:
-        return Path(path).read_text(encoding="utf-8", errors="replace"), file
-    except OSError as exc:
-        raise MissionError(file, 0, f"cannot read mission file: {exc.strerror}") from None
+        return read_text_file(path), file
+    except _Unreadable as exc:
+        raise MissionError(file, 0, f"cannot read mission file: {exc}") from None
 
 
 def load_mission(path: str | Path) -> Mission:

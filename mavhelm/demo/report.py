@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mavhelm.companion.bus import Message
-from mavhelm.companion.mission import Mission
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Mission
 from mavhelm.sitl.truth import Truth
 
 

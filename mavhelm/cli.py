@@ -6,12 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from mavhelm.errors import LocatedError
+from mavhelm.core.errors import LocatedError
 
 
 def _run(args: argparse.Namespace) -> int:
-    from mavhelm.companion.clock import WallClock
     from mavhelm.companion.companion import Companion
+    from mavhelm.core.clock import WallClock
 
     clock = WallClock()
     log_dir = Path(args.log_dir)

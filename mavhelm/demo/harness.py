@@ -12,12 +12,13 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mavhelm.companion.bus import Message
-from mavhelm.companion.clock import SimClock
 from mavhelm.companion.companion import Companion
-from mavhelm.companion.mavlink_bridge import mission_origin
-from mavhelm.companion.mission import Mission, load_mission
-from mavhelm.sitl.groundstation import GroundStation, Operator
+from mavhelm.core.bus import Message
+from mavhelm.core.clock import SimClock
+from mavhelm.core.geodesy import mission_origin
+from mavhelm.core.mission import Mission, load_mission
+from mavhelm.demo.groundstation import GroundStation, Operator
+from mavhelm.sitl import flat_earth
 from mavhelm.sitl.lockstep import Lockstep
 from mavhelm.sitl.simulator import Simulator
 from mavhelm.sitl.truth import Truth
@@ -55,8 +56,10 @@ class SimulatedRun:
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
         clock = SimClock(0.0)
+        origin = mission_origin(mission)
         sim = Simulator(clock, vehicle=vehicle, variant=variant, ports=(0, 0, 0),
-                        home=mission_origin(mission), start_heading=start_heading,
+                        home=flat_earth.Origin(origin.lat, origin.lon),
+                        start_heading=start_heading,
                         fast_start=fast_start, scenario=scenario, seed=seed, params=params)
         companion = Companion.build(mission, clock, connect=f"tcp:127.0.0.1:{sim.ports[0]}",
                                     alog_path=alog_path, alog_opened_on=time.time())

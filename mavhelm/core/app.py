@@ -7,7 +7,7 @@ MAVLink out takes one tick from sensor to actuator.
 
 from __future__ import annotations
 
-from mavhelm.companion.bus import Bus, Message
+from mavhelm.core.bus import Bus, Message
 
 
 class App:

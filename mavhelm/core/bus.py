@@ -11,7 +11,7 @@ from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from mavhelm.companion.clock import Clock
+from mavhelm.core.clock import Clock
 
 
 @dataclass(frozen=True, slots=True)

@@ -6,8 +6,8 @@ import time
 from collections import defaultdict
 from collections.abc import Sequence
 
-from mavhelm.companion.app import App
-from mavhelm.companion.bus import Bus
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus
 
 
 class Community:

@@ -11,11 +11,11 @@ import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
 
-from mavhelm.companion.mission import load_mission
-from mavhelm.companion.report import Summary, format_summary, plot_run, summarize, write_track_csv
-from mavhelm.sitl.harness import SimulatedRun
+from mavhelm.core.mission import load_mission
+from mavhelm.demo.harness import SimulatedRun
+from mavhelm.demo.report import Summary, format_summary, plot_run, summarize, write_track_csv
 
-DEFAULT_MISSION = Path(__file__).resolve().parent.parent / "examples" / "demo.moos"
+DEFAULT_MISSION = Path(__file__).resolve().parents[2] / "examples" / "demo.moos"
 
 
 @dataclass

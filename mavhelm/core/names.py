@@ -1,0 +1,28 @@
+"""Bus variable names that more than one layer speaks: what pNav publishes and the helm reads,
+what the link posts and the helm obeys. One spelling, so a typo cannot split a conversation."""
+
+from __future__ import annotations
+
+from typing import Final
+
+NAV_X: Final = "NAV_X"
+NAV_Y: Final = "NAV_Y"
+NAV_YAW: Final = "NAV_YAW"
+NAV_HEADING: Final = "NAV_HEADING"
+NO_SOURCE: Final = "NONE"
+"""Value of ``NAV_<K>_SOURCE`` when every source in that key's priority queue has timed out."""
+
+HELM_ONLINE: Final = "HELM_ONLINE"
+"""1 while the helm may actuate (link up, autopilot armed in an online mode), else 0."""
+
+MAIN_ACTUATORS: Final = ("RUDDER", "THRUST", "ELEVATOR")
+
+
+def source_variable(name: str) -> str:
+    """Where pNav declares which source feeds a NAV variable (``NAV_X`` → ``NAV_X_SOURCE``)."""
+    return f"{name}_SOURCE"
+
+
+def desired(actuator: str) -> str:
+    """The helm's output variable for an actuator (``RUDDER`` → ``DESIRED_RUDDER``)."""
+    return f"DESIRED_{actuator}"
