@@ -12,10 +12,11 @@ from pathlib import Path
 from pymavlink import mavutil
 
 from mavhelm.companion.alog import AlogLogger
-from mavhelm.companion.mavlink_bridge import MavlinkBridge
+from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import Clock
 from mavhelm.core.community import Community
+from mavhelm.core.geodesy import Origin, mission_origin
 from mavhelm.core.mission import Mission, load_mission
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
@@ -34,6 +35,37 @@ def check_processes(mission: Mission) -> None:
 
 
 @dataclass
+class Plan:
+    """A mission read and checked whole — every block, every setting — before any link opens.
+
+    Building one is how a mission is validated: ``mavhelm run`` refuses to start, and a
+    reload would refuse to replace the running mission, unless this succeeds.
+    """
+
+    mission: Mission
+    bus: Bus
+    navigator: Navigator
+    helm: Helm
+    link: BridgeConfig
+    origin: Origin
+
+    @classmethod
+    def from_mission(cls, mission: Mission | str | Path, clock: Clock, *,
+                     connect: str | None = None) -> Plan:
+        if not isinstance(mission, Mission):
+            mission = load_mission(mission)
+        origin = mission_origin(mission)
+        check_processes(mission)
+        bus = Bus(clock)
+        navigator = Navigator.from_mission(bus, mission)
+        helm = Helm.from_mission(bus, mission)
+        link = BridgeConfig.from_block(mission.process("iMAVLink"), helm.gains.max_rudder)
+        if connect is not None:
+            link.connect = connect
+        return cls(mission, bus, navigator, helm, link, origin)
+
+
+@dataclass
 class Companion:
     mission: Mission
     bus: Bus
@@ -49,18 +81,14 @@ class Companion:
               alog_path: str | Path | None = None,
               alog_opened_on: float | None = None) -> Companion:
         """Everything is configured (and the mission validated) before the link is opened."""
-        if not isinstance(mission, Mission):
-            mission = load_mission(mission)
-        check_processes(mission)
-        bus = Bus(clock)
-        navigator = Navigator.from_mission(bus, mission)
-        helm = Helm.from_mission(bus, mission)
-        bridge = MavlinkBridge.from_mission(bus, mission, connect=connect, connection=connection,
-                                            max_rudder=helm.gains.max_rudder)
+        plan = Plan.from_mission(mission, clock, connect=connect)
+        bus, navigator, helm = plan.bus, plan.navigator, plan.helm
+        bridge = MavlinkBridge(bus, plan.link, plan.origin, connection)
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
-        return cls(mission, bus, bridge, navigator, helm, Community(bus, apps), 1.0 / helm.app_tick)
+        return cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
+                   1.0 / helm.app_tick)
 
     def tick(self, now: float) -> None:
         self.community.tick(now)

@@ -22,8 +22,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
-from mavhelm.core.geodesy import Origin, mission_origin
-from mavhelm.core.mission import Block, Entry, Mission
+from mavhelm.core.geodesy import Origin
+from mavhelm.core.mission import Block, Entry
 from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text
 
 ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
@@ -146,15 +146,6 @@ class MavlinkBridge:
         self._streams_requested_at: float | None = None
         self._next_heartbeat = 0.0
         self._boot_time: float | None = None
-
-    @classmethod
-    def from_mission(cls, bus: Bus, mission: Mission, connect: str | None = None,
-                     connection: mavutil.mavfile | None = None,
-                     max_rudder: float = 20.0) -> MavlinkBridge:
-        cfg = BridgeConfig.from_block(mission.process("iMAVLink"), max_rudder)
-        if connect is not None:
-            cfg.connect = connect
-        return cls(bus, cfg, mission_origin(mission), connection)
 
     # -- input -----------------------------------------------------------------------------
 

@@ -14,6 +14,7 @@ libraries (pydantic, voluptuous) know neither and would need as much glue as thi
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from collections.abc import Iterable, Sequence
@@ -305,8 +306,10 @@ class Point(Kind):
             parts = []
         if len(parts) not in (2, 3):
             raise entry.error(f"{entry.key} expects x,y or x,y,z in metres, got {entry.value!r}")
-        coordinate = Number(-self.limit, self.limit)
-        values = [coordinate.parse_text(p, entry, f"{entry.key} coordinate") for p in parts]
+        values = [float(p) for p in parts]
+        if not all(math.isfinite(v) and abs(v) <= self.limit for v in values):
+            raise entry.error(f"{entry.key} must be x,y[,z] in finite metres within "
+                              f"±{_number_text(self.limit)}, got {entry.value.strip()!r}")
         return values[0], values[1], values[2] if len(values) == 3 else None
 
 
@@ -395,8 +398,11 @@ class Schema:
                                    f"{prefix.rstrip('_')} setting today); remove it")
         if not self.params:
             return entry.error(f"unknown setting {entry.key!r}: {self.owner} takes no settings")
+        names = {p.key: p.name for p in self.params}
+        close = difflib.get_close_matches(entry.key.lower(), names, n=1, cutoff=0.75)
+        hint = f"did you mean {names[close[0]]}? " if close else ""
         return entry.error(f"unknown setting {entry.key!r} for {self.owner} "
-                           f"(known: {self.known()})")
+                           f"({hint}known: {self.known()})")
 
     def read(self, block: Block, *, skip: Iterable[str] = (),
              owner: str | None = None) -> dict[str, Any]:
