@@ -345,6 +345,15 @@ class Param:
         snake = re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", self.name)
         return snake.lower()
 
+    def accepts(self, value: Any) -> bool:
+        """Whether a value held after reading is one this parameter allows: its default
+        (None for an optional setting left out) or a value of its kind in range."""
+        if self.repeat:
+            return isinstance(value, list) and all(
+                self.kind.check_value([v] if isinstance(self.kind, Names) else v)
+                for v in value)
+        return (not self.required and value == self.default) or self.kind.check_value(value)
+
     def describe_default(self) -> str:
         if self.required:
             return "required"
