@@ -49,6 +49,13 @@ def _demo(args: argparse.Namespace) -> int:
     return 0 if result.ended else 1
 
 
+def _params(args: argparse.Namespace) -> int:
+    from mavhelm.companion.reference import reference
+
+    sys.stdout.write(reference())
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from mavhelm.sitl import runner
 
@@ -77,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--scenario", help="fault scenario file (.scn)")
     demo.add_argument("--seed", type=int, default=0)
     demo.set_defaults(func=_demo)
+    params = sub.add_parser("params", help="print the reference of every mission setting "
+                            "(Markdown: names, units, defaults, accepted ranges)")
+    params.set_defaults(func=_params)
     return parser
 
 

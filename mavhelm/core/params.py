@@ -36,7 +36,7 @@ NEVER = "NEVER"
 
 
 def _number_text(x: float) -> str:
-    return f"{x:g}"
+    return f"{x:.12g}"
 
 
 class Kind:

@@ -21,10 +21,18 @@ TASK_TYPES: dict[str, type[Task]] = {
 }
 
 
+SPELLINGS: dict[str, str] = {"timeout": "TimeOut"}
+"""How a user writes an alias (the spec calls the Timer task TimeOut)."""
+
+
+def spelling(key: str) -> str:
+    """A registry key as a user would write it."""
+    return SPELLINGS.get(key, TASK_TYPES[key].keyword)
+
+
 def known_types() -> list[str]:
     """Keywords as a user would write them, for error messages."""
-    names = {cls.keyword for cls in TASK_TYPES.values()} | {"TimeOut"}
-    return sorted(names, key=str.lower)
+    return sorted({spelling(key) for key in TASK_TYPES}, key=str.lower)
 
 
 def task_class(keyword: str) -> type[Task] | None:

@@ -10,7 +10,7 @@ class Timer(Task):
     """Votes on nothing, needs nothing; ends by its TimeOut (cause ``timeout``), as in MOOS."""
 
     keyword = "Timer"
-    summary = "waits, then posts its FinishFlags (also written TimeOut); ends on its TimeOut"
+    summary = "waits, then posts its FinishFlags: a pause between tasks; ends on its TimeOut"
     params = (
         Param("TimeOut",
               Seconds(never=False,

@@ -1,0 +1,61 @@
+"""The parameter reference, generated from the schemas the code reads missions with.
+
+``mavhelm params`` prints it; ``docs/parameters.md`` is its output, and a test fails when the
+two differ, so the documentation cannot drift from what a mission may say.
+"""
+
+from __future__ import annotations
+
+from mavhelm.companion.companion import PROCESSES
+from mavhelm.companion.mavlink_bridge import IMAVLINK_SCHEMA
+from mavhelm.core.geodesy import GLOBAL_SCHEMA
+from mavhelm.core.params import Schema
+from mavhelm.nav.navigator import NAV_SCHEMA
+from mavhelm.tasks.base import BASE_PARAMS, Task
+from mavhelm.tasks.helm import HELM_SCHEMA
+from mavhelm.tasks.registry import TASK_TYPES, spelling
+
+PROCESS_SCHEMAS: dict[str, tuple[Schema, str]] = {
+    "iMAVLink": (IMAVLINK_SCHEMA, "The link to the autopilot."),
+    "pNav": (NAV_SCHEMA, "The navigator: one priority queue per NAV_* key (spec 2.1). "
+             "YAW is radians (yaw = −heading), HEADING degrees; configure one of the two."),
+    "pHelm": (HELM_SCHEMA, "The helm's own settings; its `Task = Type { … }` blocks are below."),
+}
+assert tuple(PROCESS_SCHEMAS) == PROCESSES
+
+
+def _own_schema(cls: type[Task]) -> Schema:
+    """A task type's settings beyond the base properties (a narrowed base one included)."""
+    declared = []
+    for klass in reversed(cls.__mro__):
+        declared.extend(klass.__dict__.get("params", ()))
+    return Schema(cls.keyword, tuple(declared))
+
+
+def reference() -> str:
+    """The whole reference as Markdown."""
+    out = [
+        "# Mission parameter reference",
+        "",
+        "Generated from the declarations in the code (`mavhelm params > docs/parameters.md`);",
+        "a test fails when this file and the code disagree. Keys are case-insensitive. Every",
+        "block refuses a key it does not know, a required key left out, a key given twice, and",
+        "any value that is not finite or not in the range shown, with `file:line: reason`.",
+        "",
+        GLOBAL_SCHEMA.reference("Global settings", "Outside every block."),
+    ]
+    for name, (schema, intro) in PROCESS_SCHEMAS.items():
+        out.append(schema.reference(f"ProcessConfig = {name}", intro))
+    out.append(Schema("every task", BASE_PARAMS).reference(
+        "Base properties of every task (spec Table 1)",
+        "A task type may narrow one of these; its own table then shows it."))
+    seen: set[type[Task]] = set()
+    for cls in TASK_TYPES.values():
+        if cls in seen:
+            continue
+        seen.add(cls)
+        aliases = sorted(spelling(k) for k, c in TASK_TYPES.items()
+                         if c is cls and k != cls.keyword.lower())
+        also = f" (also written {', '.join(aliases)})" if aliases else ""
+        out.append(_own_schema(cls).reference(f"Task = {cls.keyword}{also}", cls.summary))
+    return "\n".join(out).rstrip() + "\n"
