@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from mavhelm.core.bus import Bus, Message
@@ -546,3 +548,22 @@ def test_yaw_source_loss_also_means_heading_loss():
     assert nav.lost("NAV_HEADING") and nav.lost("NAV_YAW")
     nav.update(Message("NAV_YAW_SOURCE", "INS", 3.0, "pNav"))
     assert not nav.lost("NAV_HEADING")
+
+
+class _Broken(Task):
+    """A task whose arithmetic went wrong: it votes NaN thrust and infinite rudder."""
+
+    keyword = "Broken"
+
+    def update(self, nav: NavState, now: float) -> Votes | None:
+        return {"THRUST": math.nan, "RUDDER": math.inf}
+
+
+def test_a_non_finite_vote_becomes_zero_with_a_warning(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(TASK_TYPES, "broken", _Broken)
+    spec = Spec()
+    rig = Rig([spec.task("Broken", ("Name", "B"), ("TimeOut", "NEVER")), *safety(spec)], spec)
+    out = rig.tick(HELM_ONLINE=1.0)
+    assert one(out, "DESIRED_THRUST") == 0.0 and one(out, "DESIRED_RUDDER") == 0.0
+    warnings = values(out, "HELM_WARNING")
+    assert len(warnings) == 2 and all("task B voted" in str(w) for w in warnings)

@@ -7,6 +7,8 @@ not lost) but none is run and no ``DESIRED_*`` is posted: the human has the vehi
 
 from __future__ import annotations
 
+import math
+
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.mission import Block, Mission, MissionError
@@ -179,6 +181,11 @@ class Helm(App):
                 self._aux_actuators.append(actuator)
         for actuator in (*MAIN_ACTUATORS, *self._aux_actuators):
             value = self.last_winners[actuator][0] if actuator in self.last_winners else 0.0
+            if not math.isfinite(value):
+                owner_name = self.last_winners[actuator][1].name
+                self.notify("HELM_WARNING", f"task {owner_name} voted {value} on {actuator}: "
+                            "not a number, 0 sent instead")
+                value = 0.0
             limit = limits.get(actuator)
             if limit is not None:
                 value = max(-limit, min(limit, value))
