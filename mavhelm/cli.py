@@ -17,7 +17,8 @@ def _run(args: argparse.Namespace) -> int:
     log_dir = Path(args.log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
-    companion = Companion.build(args.mission, clock, connect=args.connect, alog_path=alog)
+    companion = Companion.build(args.mission, clock, connect=args.connect, alog_path=alog,
+                                echo=lambda line: print(line, flush=True))
     print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}")
     next_tick = clock.now()
     try:

@@ -6,12 +6,14 @@ tick is acted on, and actuation stopped, in that same tick.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from pymavlink import mavutil
 
 from mavhelm.companion.alog import AlogLogger
+from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import Clock
@@ -79,7 +81,8 @@ class Companion:
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
               connection: mavutil.mavfile | None = None,
               alog_path: str | Path | None = None,
-              alog_opened_on: float | None = None) -> Companion:
+              alog_opened_on: float | None = None,
+              echo: Callable[[str], None] | None = None) -> Companion:
         """Everything is configured (and the mission validated) before the link is opened."""
         plan = Plan.from_mission(mission, clock, connect=connect)
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
@@ -87,6 +90,8 @@ class Companion:
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
+        if echo is not None:
+            apps.append(StatusConsole(bus, echo))
         return cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
                    1.0 / helm.app_tick)
 

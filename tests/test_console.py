@@ -1,0 +1,57 @@
+"""The operator's console: one timestamped line per event, repeats held back and counted."""
+
+from __future__ import annotations
+
+from mavhelm.companion.console import StatusConsole
+from mavhelm.core.bus import Bus
+from mavhelm.core.clock import SimClock
+
+
+def rig():
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    lines: list[str] = []
+    console = StatusConsole(bus, lines.append, quiet_s=5.0)
+    bus.subscribe(console.name, console.subscriptions())
+
+    def tick(t: float, **posts) -> list[str]:
+        clock.advance(t - clock.now())
+        for name, value in posts.items():
+            bus.notify(name, value, "test")
+        before = len(lines)
+        console.on_mail(bus.fetch(console.name), clock.now())
+        return lines[before:]
+
+    return tick
+
+
+def test_events_become_lines_and_other_traffic_does_not():
+    tick = rig()
+    assert tick(1.0, NAV_X=3.0, DESIRED_THRUST=50.0) == []
+    assert tick(2.0, AP_LINK=1.0) == ["t+     2.0s  autopilot link up"]
+    assert tick(3.0, AP_MODE="GUIDED") == ["t+     3.0s  autopilot mode GUIDED"]
+    assert tick(4.0, HELM_STATUS="online: armed in GUIDED") == [
+        "t+     4.0s  helm online: armed in GUIDED"]
+    assert tick(5.0, TASK_ENDED="South:timeout") == ["t+     5.0s  task South ended: timeout"]
+    assert tick(6.0, Leg_ERROR="starved") == ["t+     6.0s  Leg_ERROR: starved"]
+    assert tick(7.0, MAVLINK_OUTPUT_REFUSED="DESIRED_THRUST=nan") == [
+        "t+     7.0s  MAVLINK_OUTPUT_REFUSED: DESIRED_THRUST=nan"]
+
+
+def test_a_repeated_line_is_held_back_then_counted():
+    tick = rig()
+    assert len(tick(0.0, AP_LINK=0.0)) == 1
+    assert tick(1.0, AP_LINK=0.0) == []
+    assert tick(2.0, AP_LINK=0.0) == []
+    assert tick(6.0, AP_LINK=0.0) == ["t+     6.0s  autopilot link DOWN  (and 2 more like it)"]
+
+
+def test_wall_clock_times_are_shown_as_time_of_day():
+    clock = SimClock(1_764_500_000.25)
+    bus = Bus(clock)
+    lines: list[str] = []
+    console = StatusConsole(bus, lines.append)
+    bus.subscribe(console.name, console.subscriptions())
+    bus.notify("MISSION_ENDED", "AllStop", "pHelm")
+    console.on_mail(bus.fetch(console.name), clock.now())
+    assert lines == ["10:53:20.2  MISSION ENDED (AllStop holds the vehicle)"]
