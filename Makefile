@@ -1,9 +1,10 @@
-# mavhelm — `make demo` runs the demo mission in the built-in simulator, `make test` the suite.
+# mavhelm — `make demo` runs the demo mission in the built-in simulator, `make test` the suite,
+# `make test-fast` the suite without the tests marked slow.
 PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-fast lint bench clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -17,6 +18,10 @@ demo: $(BIN)/.installed
 test: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
 	$(BIN)/python -m pytest -q
+
+test-fast: $(BIN)/.installed
+	$(BIN)/ruff check mavhelm tests benchmarks
+	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_demo.py

@@ -1,138 +1,24 @@
 """Conformance of the simulator's MAVLink side with ArduPilot Rover, through real sockets.
 
 Each test drives a Simulator with a SimClock and talks to it with pymavlink, as a companion or
-a ground station would. ``Rig`` delivers bytes exactly (byte counters + FIONREAD), so the tests
-are deterministic and need no sleeps.
+a ground station would. ``Rig`` (tests/sitl_rig.py; the ``rig`` fixture is in conftest.py)
+delivers bytes exactly (byte counters + FIONREAD), so the tests are deterministic and need no
+sleeps. The lockstep driver's own stall limit is tested at the end.
 """
 
 from __future__ import annotations
 
-import select
+import socket
 import time
-from dataclasses import dataclass, field
 
 import pytest
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
+from sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 from mavhelm.core.clock import SimClock
-from mavhelm.sitl.lockstep import pending_bytes
-from mavhelm.sitl.simulator import Simulator
+from mavhelm.sitl.lockstep import STALL_ENV, Lockstep, LockstepError, stall_limit
 
 M = mavlink
-
-
-@dataclass
-class Client:
-    conn: mavutil.mavfile
-    link: object
-    msgs: list = field(default_factory=list)
-
-    @property
-    def mav(self):
-        return self.conn.mav
-
-    def of(self, kind: str) -> list:
-        return [m for m in self.msgs if m.get_type() == kind]
-
-    def texts(self) -> list[str]:
-        return [m.text for m in self.of("STATUSTEXT")]
-
-    def acks(self, command: int | None = None) -> list:
-        return [m for m in self.of("COMMAND_ACK") if command is None or m.command == command]
-
-    def last(self, kind: str):
-        got = self.of(kind)
-        return got[-1] if got else None
-
-
-class Rig:
-    """A simulator, a simulated clock and pymavlink clients, delivered in lockstep."""
-
-    def __init__(self, **kw) -> None:
-        kw.setdefault("ports", (0, 0, 0))
-        kw.setdefault("fast_start", True)
-        self.clock = SimClock(0.0)
-        self.sim = Simulator(self.clock, **kw)
-        self.clients: list[Client] = []
-
-    def connect(self, port_index: int = 0, sysid: int = 255, compid: int = 190) -> Client:
-        conn = mavutil.mavlink_connection(f"tcp:127.0.0.1:{self.sim.ports[port_index]}",
-                                          source_system=sysid, source_component=compid,
-                                          dialect="ardupilotmega")
-        local = conn.port.getsockname()
-        deadline = time.monotonic() + 5
-        while time.monotonic() < deadline:
-            self.sim.service(self.clock.now())
-            for link in self.sim.links:
-                if tuple(link.peer[:2]) == tuple(local[:2]):
-                    c = Client(conn, link)
-                    self.clients.append(c)
-                    return c
-            select.select([], [], [], 0.001)
-        raise AssertionError("simulator did not accept")
-
-    def _wait(self, done, sock) -> None:
-        deadline = time.monotonic() + 5
-        while not done():
-            assert time.monotonic() < deadline, "lockstep stalled"
-            select.select([sock], [], [], 0.001)
-
-    def deliver(self) -> None:
-        """Make sure the simulator's socket holds everything the clients sent."""
-        for c in self.clients:
-            if c.link.closed:
-                continue
-            self._wait(lambda c=c: c.link.bytes_received + pending_bytes(c.link.sock)
-                       >= c.mav.total_bytes_sent, c.link.sock)
-
-    def step(self, dt: float = 0.05, n: int = 1) -> None:
-        for _ in range(n):
-            self.deliver()
-            self.sim.step(self.clock.advance(dt))
-            for c in self.clients:
-                self._wait(lambda c=c: c.mav.total_bytes_received + pending_bytes(c.conn.port)
-                           >= c.link.bytes_sent, c.conn.port)
-                while (m := c.conn.recv_msg()) is not None:
-                    if m.get_type() != "BAD_DATA":
-                        c.msgs.append(m)
-
-    def run(self, seconds: float, dt: float = 0.05) -> None:
-        self.step(dt, int(round(seconds / dt)))
-
-    def until(self, pred, max_time: float, dt: float = 0.05) -> bool:
-        end = self.clock.now() + max_time
-        while self.clock.now() < end:
-            self.step(dt)
-            if pred():
-                return True
-        return False
-
-    def close(self) -> None:
-        for c in self.clients:
-            c.conn.close()
-        self.sim.close()
-
-
-@pytest.fixture
-def rig():
-    r = Rig()
-    yield r
-    r.close()
-
-
-def command(c: Client, cmd: int, *params: float) -> None:
-    p = list(params) + [0.0] * (7 - len(params))
-    c.mav.command_long_send(1, 1, cmd, 0, *p)
-
-
-def arm_guided(r: Rig, c: Client) -> None:
-    r.run(3.0)
-    command(c, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-    r.step()
-    command(c, M.MAV_CMD_DO_SET_MODE, 1, 15)
-    r.step()
-    assert r.sim.armed and r.sim.mode == "GUIDED"
 
 
 # ---------------------------------------------------------------------------- stage 1
@@ -388,25 +274,58 @@ def test_gps_outage_fault_drops_the_fix_and_dead_reckons():
         r.close()
 
 
-@dataclass
-class FakeFault:
-    kind: str
-    start: float
-    end: float
-    params: dict
+# ---------------------------------------------------------------------------- lockstep stall limit
 
 
-class FakeScenario:
-    """The faults.Scenario protocol: active(kind, t) and rng(name)."""
+class _SilentSim:
+    """A simulator that never accepts a connection: every lockstep wait on it stalls."""
 
-    def __init__(self, faults: list[FakeFault]) -> None:
-        self.faults = faults
+    links: list = []
 
-    def active(self, kind: str, t: float) -> list[FakeFault]:
-        return [f for f in self.faults if f.kind == kind and f.start <= t < f.end]
+    def service(self, now: float) -> None:
+        pass
 
-    def rng(self, name: str):
-        import zlib
 
-        import numpy as np
-        return np.random.default_rng(zlib.crc32(name.encode()))
+class _Conn:
+    def __init__(self, port: socket.socket) -> None:
+        self.port = port
+
+
+def test_lockstep_stall_limit_defaults_to_5_s(monkeypatch):
+    monkeypatch.delenv(STALL_ENV, raising=False)
+    assert stall_limit() == 5.0
+    assert Lockstep(_SilentSim(), SimClock(0.0), 0.1).wall_timeout == 5.0
+
+
+def test_lockstep_stall_limit_is_taken_from_the_environment(monkeypatch):
+    monkeypatch.setenv(STALL_ENV, "0.2")
+    lockstep = Lockstep(_SilentSim(), SimClock(0.0), 0.1)
+    assert lockstep.wall_timeout == 0.2
+    assert Lockstep(_SilentSim(), SimClock(0.0), 0.1, wall_timeout=7.0).wall_timeout == 7.0
+    a, b = socket.socketpair()
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(LockstepError, match="never accepted"):
+            lockstep.add_peer(_Conn(a), lambda now: None)
+        assert 0.2 <= time.monotonic() - t0 < 2.0, "gave up after the configured 0.2 s"
+    finally:
+        a.close()
+        b.close()
+
+
+def test_rig_stall_limit_follows_the_environment(monkeypatch):
+    monkeypatch.setenv(STALL_ENV, "12.5")
+    r = Rig(ports=(0,))
+    try:
+        assert r.wall_timeout == 12.5
+    finally:
+        r.close()
+
+
+@pytest.mark.parametrize("bad", ["soon", "", "nan", "inf", "-inf", "0", "-3"])
+def test_lockstep_refuses_a_bad_stall_limit(monkeypatch, bad):
+    monkeypatch.setenv(STALL_ENV, bad)
+    with pytest.raises(ValueError, match=rf"^{STALL_ENV} must be a positive, finite number"):
+        Lockstep(_SilentSim(), SimClock(0.0), 0.1)
+    with pytest.raises(ValueError, match=repr(bad)):
+        stall_limit()

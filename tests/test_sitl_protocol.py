@@ -8,16 +8,11 @@ import socket
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
-from test_sitl_core import FakeFault, FakeScenario, Rig, arm_guided, command
+from sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 M = mavlink
 
-
-@pytest.fixture
-def rig():
-    r = Rig()
-    yield r
-    r.close()
+# rig: fixture in conftest.py
 
 
 # ---------------------------------------------------------------------------- parameters

@@ -2,31 +2,39 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import pytest
 
 from mavhelm.core.bus import Message
-from mavhelm.core.mission import Block, Entry, MissionError
+from mavhelm.core.mission import Block, MissionError
 from mavhelm.tasks.base import NavState, State, Task
 from mavhelm.tasks.heading import ConstantHeading
 from mavhelm.tasks.registry import build_task, known_types, task_class
 
+# tblock, msg: fixtures in conftest.py
+SOURCE = "south.moos"
 
-def tblock(kind: str, *pairs: tuple[str, str], line: int = 30) -> Block:
-    entries = [Entry(k, v, "south.moos", line + 1 + i) for i, (k, v) in enumerate(pairs)]
-    return Block("Task", kind, "south.moos", line, entries)
-
-
-def heading_task(*pairs: tuple[str, str]) -> ConstantHeading:
-    task = build_task(tblock("ConstantHeading", ("Heading", "180"), *pairs))
-    assert isinstance(task, ConstantHeading)
-    return task
+TBlock = Callable[..., Block]
+Msg = Callable[[str, float | str, float], Message]
+HeadingTask = Callable[..., ConstantHeading]
 
 
-def msg(name: str, value: float | str, t: float) -> Message:
-    return Message(name, value, t, "test")
+@pytest.fixture
+def heading_task(tblock: TBlock) -> HeadingTask:
+    """``heading_task(*(key, value))``: a ConstantHeading to 180 in south.moos, block at line 30,
+    so the first extra setting sits at line 32."""
+
+    def make(*pairs: tuple[str, str]) -> ConstantHeading:
+        task = build_task(tblock("ConstantHeading", ("Heading", "180"), *pairs,
+                                 file=SOURCE, line=30))
+        assert isinstance(task, ConstantHeading)
+        return task
+
+    return make
 
 
-def test_table1_properties_are_read() -> None:
+def test_table1_properties_are_read(heading_task: HeadingTask) -> None:
     t = heading_task(
         ("Name", "South"),
         ("StartFlag", "MissionStart, Go"),
@@ -44,12 +52,12 @@ def test_table1_properties_are_read() -> None:
     assert (t.timeout, t.initial_on, t.priority, t.log_pid) == (300.0, False, 2, True)
 
 
-def test_defaults_priority_3_timeout_100() -> None:
+def test_defaults_priority_3_timeout_100(heading_task: HeadingTask) -> None:
     t = heading_task(("InitialState", "ON"))
     assert (t.priority, t.timeout, t.name) == (3, 100.0, "ConstantHeading")
 
 
-def test_timeout_never_and_case_insensitive_keys() -> None:
+def test_timeout_never_and_case_insensitive_keys(heading_task: HeadingTask) -> None:
     t = heading_task(("timeout", "never"), ("INITIALSTATE", "ON"))
     assert t.timeout is None
 
@@ -64,7 +72,7 @@ def test_registry_is_case_insensitive_and_accepts_timeout_alias() -> None:
     ("pairs", "line", "expected"),
     [
         ((("Heding", "90"),), 32,
-         "unknown setting 'Heding' for a ConstantHeading task (known: Name,"),
+         "unknown setting 'Heding' for a ConstantHeading task (did you mean Heading? known: Name,"),
         ((("Priority", "0"),), 32, "Priority must be a whole number in [1, 1000], got 0"),
         ((("Priority", "1.5"),), 32, "Priority must be a whole number"),
         ((("TimeOut", "soon"),), 32, "TimeOut expects a number"),
@@ -77,7 +85,7 @@ def test_registry_is_case_insensitive_and_accepts_timeout_alias() -> None:
     ],
 )
 def test_bad_parameters_are_refused_at_their_line(
-    pairs: tuple[tuple[str, str], ...], line: int, expected: str
+    pairs: tuple[tuple[str, str], ...], line: int, expected: str, heading_task: HeadingTask
 ) -> None:
     with pytest.raises(MissionError) as err:
         heading_task(*pairs, ("InitialState", "ON"))
@@ -85,31 +93,31 @@ def test_bad_parameters_are_refused_at_their_line(
     assert str(err.value).startswith(f"south.moos:{line}:")
 
 
-def test_unknown_parameter_message_lists_known_ones() -> None:
+def test_unknown_parameter_message_lists_known_ones(heading_task: HeadingTask) -> None:
     with pytest.raises(MissionError, match="known: .*Thrust, Heading"):
         heading_task(("Speed", "2"))
 
 
-def test_missing_required_parameter_is_located_at_the_block() -> None:
+def test_missing_required_parameter_is_located_at_the_block(tblock: TBlock) -> None:
     with pytest.raises(MissionError) as err:
-        build_task(tblock("ConstantHeading", ("InitialState", "ON"), line=40))
+        build_task(tblock("ConstantHeading", ("InitialState", "ON"), file=SOURCE, line=40))
     assert str(err.value).startswith("south.moos:40:")
     assert "needs Heading" in str(err.value)
 
 
-def test_off_task_without_start_flag_can_never_run() -> None:
+def test_off_task_without_start_flag_can_never_run(heading_task: HeadingTask) -> None:
     with pytest.raises(MissionError, match="can never run"):
         heading_task(("InitialState", "OFF"))
 
 
-def test_unknown_task_type_lists_the_known_ones() -> None:
+def test_unknown_task_type_lists_the_known_ones(tblock: TBlock) -> None:
     with pytest.raises(MissionError) as err:
-        build_task(tblock("GoToWaypiont", ("Location", "1,2"), line=50))
+        build_task(tblock("GoToWaypiont", ("Location", "1,2"), file=SOURCE, line=50))
     assert str(err.value).startswith("south.moos:50:")
     assert "GoToWayPoint" in str(err.value) and "OverallTimeOut" in str(err.value)
 
 
-def test_start_flag_wakes_idle_task_whatever_its_value() -> None:
+def test_start_flag_wakes_idle_task_whatever_its_value(heading_task: HeadingTask, msg: Msg) -> None:
     t = heading_task(("StartFlag", "Go"), ("Name", "S"))
     t.offer(msg("Other", 1.0, 0.0), 0.0)
     assert t.state is State.IDLE
@@ -118,7 +126,9 @@ def test_start_flag_wakes_idle_task_whatever_its_value() -> None:
     assert t.take_notifications() == [("TASK_STARTED", "S")]
 
 
-def test_finished_task_is_not_restarted_by_its_start_flag() -> None:
+def test_finished_task_is_not_restarted_by_its_start_flag(
+    heading_task: HeadingTask, msg: Msg
+) -> None:
     t = heading_task(("StartFlag", "Go"), ("Name", "S"))
     t.offer(msg("Go", 1.0, 0.0), 0.0)
     t.end("timeout", "x")
@@ -126,7 +136,9 @@ def test_finished_task_is_not_restarted_by_its_start_flag() -> None:
     assert t.state is State.DONE
 
 
-def test_timeout_ends_with_finish_flags_carrying_the_reason() -> None:
+def test_timeout_ends_with_finish_flags_carrying_the_reason(
+    heading_task: HeadingTask, msg: Msg
+) -> None:
     t = heading_task(("StartFlag", "Go"), ("Name", "S"), ("TimeOut", "10"), ("FinishFlag", "A,B"))
     nav = NavState()
     t.start(0.0)
@@ -141,7 +153,7 @@ def test_timeout_ends_with_finish_flags_carrying_the_reason() -> None:
     assert "timed out after 10 s" in str(out[1][1])
 
 
-def test_starvation_posts_error_and_finish_flags() -> None:
+def test_starvation_posts_error_and_finish_flags(heading_task: HeadingTask, msg: Msg) -> None:
     t = heading_task(("StartFlag", "Go"), ("Name", "S"), ("FinishFlag", "Next"))
     nav = NavState()
     t.start(0.0)
@@ -155,7 +167,9 @@ def test_starvation_posts_error_and_finish_flags() -> None:
     assert out["Next"] == out["S_ERROR"]
 
 
-def test_never_heard_variable_starves_ten_seconds_after_activation() -> None:
+def test_never_heard_variable_starves_ten_seconds_after_activation(
+    heading_task: HeadingTask
+) -> None:
     t = heading_task(("StartFlag", "Go"), ("Name", "S"))
     nav = NavState()
     t.start(100.0)
@@ -164,14 +178,14 @@ def test_never_heard_variable_starves_ten_seconds_after_activation() -> None:
     assert t.end_cause == "starved"
 
 
-def test_nav_yaw_feeds_heading() -> None:
+def test_nav_yaw_feeds_heading(msg: Msg) -> None:
     nav = NavState()
     nav.update(msg("NAV_YAW", -1.5707963267948966, 3.0))
     assert nav.heading == pytest.approx(90.0)
     assert nav.time("NAV_HEADING") == 3.0
 
 
-def test_event_posts_event_flags_and_keeps_running() -> None:
+def test_event_posts_event_flags_and_keeps_running(heading_task: HeadingTask) -> None:
     t = heading_task(("InitialState", "ON"), ("EventFlag", "Ev1,Ev2"))
     t.start(0.0)
     t.take_notifications()
@@ -184,20 +198,22 @@ class _Custom(Task):
     keyword = "Custom"
 
 
-def test_base_hooks_are_inert() -> None:
-    t = _Custom(tblock("Custom", ("InitialState", "ON")))
+def test_base_hooks_are_inert(tblock: TBlock) -> None:
+    t = _Custom(tblock("Custom", ("InitialState", "ON"), file=SOURCE, line=30))
     t.start(0.0)
     assert t.needs() == set()
     assert t.step(NavState(), 50.0) is None and t.active
 
 
-def test_initially_on_task_ignores_its_start_flag() -> None:
+def test_initially_on_task_ignores_its_start_flag(heading_task: HeadingTask, msg: Msg) -> None:
     t = heading_task(("InitialState", "ON"), ("StartFlag", "Go"))
     t.offer(msg("Go", 1.0, 0.0), 0.0)
     assert t.state is State.IDLE, "ON tasks start with the mission, not on a flag"
 
 
-def test_initial_state_defaults_to_on_unless_a_start_flag_is_given() -> None:
+def test_initial_state_defaults_to_on_unless_a_start_flag_is_given(
+    heading_task: HeadingTask
+) -> None:
     assert heading_task().initial_on is True
     assert heading_task(("StartFlag", "Go")).initial_on is False
     assert heading_task(("StartFlag", "Go"), ("InitialState", "ON")).initial_on is True

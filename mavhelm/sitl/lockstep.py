@@ -5,11 +5,19 @@ at each peer's socket, the peers tick, and every byte they sent is waited for at
 simulator's socket. The wait compares byte counts (the simulator's link counters against
 pymavlink's ``total_bytes_*`` plus what sits in the socket, read with FIONREAD), so the run is
 deterministic without sleeps, whatever the protocol carries.
+
+A wait that makes no progress for a while means a peer is stuck, so it fails with a
+``LockstepError`` after a wall-clock stall limit: 5 s unless the environment variable
+``MAVHELM_LOCKSTEP_STALL_S`` gives another (a positive, finite number of seconds, e.g. 30 on a
+slow or loaded machine; anything else is refused with a ValueError). The variable is read when
+a ``Lockstep`` is built, and a ``wall_timeout`` passed to it explicitly takes precedence.
 """
 
 from __future__ import annotations
 
 import fcntl
+import math
+import os
 import select
 import struct
 import termios
@@ -21,9 +29,27 @@ from pymavlink import mavutil
 
 from mavhelm.core.clock import SimClock
 
+STALL_ENV = "MAVHELM_LOCKSTEP_STALL_S"
+DEFAULT_STALL_S = 5.0
+
 
 class LockstepError(RuntimeError):
     pass
+
+
+def stall_limit() -> float:
+    """The wall-clock stall limit in seconds: $MAVHELM_LOCKSTEP_STALL_S, or 5 s when unset."""
+    raw = os.environ.get(STALL_ENV)
+    if raw is None:
+        return DEFAULT_STALL_S
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(
+            f"{STALL_ENV} must be a positive, finite number of seconds, got {raw!r}")
+    return value
 
 
 def pending_bytes(sock) -> int:
@@ -40,11 +66,12 @@ class Peer:
 
 
 class Lockstep:
-    def __init__(self, sim, clock: SimClock, dt: float, wall_timeout: float = 5.0) -> None:
+    def __init__(self, sim, clock: SimClock, dt: float,
+                 wall_timeout: float | None = None) -> None:
         self.sim = sim
         self.clock = clock
         self.dt = dt
-        self.wall_timeout = wall_timeout
+        self.wall_timeout = stall_limit() if wall_timeout is None else wall_timeout
         self.peers: list[Peer] = []
 
     def add_peer(self, conn: mavutil.mavfile, tick: Callable[[float], None]) -> None:

@@ -1,0 +1,69 @@
+"""Fixtures shared by several test modules.
+
+Task rigs (test_tasks_*): ``tblock`` builds a mission ``Task`` block from (key, value) pairs,
+each entry on its own line after the block's, so refusals can be checked at file:line; ``msg``
+builds a bus message and ``nav_at`` a NavState holding NAV_* values heard at one time.
+
+Simulator rig (test_sitl_*): ``rig`` is a ``sitl_rig.Rig`` with the default settings, closed
+after the test. Tests that need other settings build ``Rig(...)`` from sitl_rig themselves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
+
+import pytest
+
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Block, Entry
+from mavhelm.tasks.base import NavState
+
+if TYPE_CHECKING:
+    from sitl_rig import Rig
+
+
+def _task_block(kind: str, *pairs: tuple[str, str], file: str = "t.moos",
+                line: int = 60) -> Block:
+    entries = [Entry(k, v, file, line + 1 + i) for i, (k, v) in enumerate(pairs)]
+    return Block("Task", kind, file, line, entries)
+
+
+def _message(name: str, value: float | str, t: float) -> Message:
+    return Message(name, value, t, "test")
+
+
+def _nav_at(t: float, **values: float) -> NavState:
+    nav = NavState()
+    for name, v in values.items():
+        nav.update(_message(f"NAV_{name.upper()}", v, t))
+    return nav
+
+
+@pytest.fixture
+def tblock() -> Callable[..., Block]:
+    """``tblock(kind, *(key, value), file="t.moos", line=60)``: a Task block at file:line, its
+    entries on the lines after it."""
+    return _task_block
+
+
+@pytest.fixture
+def msg() -> Callable[[str, float | str, float], Message]:
+    """``msg(name, value, t)``: a bus message from source "test"."""
+    return _message
+
+
+@pytest.fixture
+def nav_at() -> Callable[..., NavState]:
+    """``nav_at(t, x=.., heading=..)``: a NavState that heard NAV_X, NAV_HEADING... at time t."""
+    return _nav_at
+
+
+@pytest.fixture
+def rig() -> Iterator[Rig]:
+    """A default simulator rig (three TCP ports, fast start), closed after the test."""
+    from sitl_rig import Rig  # imported here: only the simulator tests pay for the simulator
+
+    r = Rig()
+    yield r
+    r.close()
