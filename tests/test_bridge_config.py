@@ -32,7 +32,8 @@ def test_settings_are_read():
 
 
 @pytest.mark.parametrize("body, line, words", [
-    ("Conect = tcp:127.0.0.1:5760", 5, "unknown setting 'Conect' for iMAVLink (known: Connect,"),
+    ("Conect = tcp:127.0.0.1:5760", 5,
+     "unknown setting 'Conect' for iMAVLink (did you mean Connect? known: Connect,"),
     ("OnlineModes = GUIDED, AUTOPILOT", 5, "OnlineModes expects one of MANUAL"),
     ("Actuation = rc_override", 5, "not supported yet"),
     ("Stream = ATTITUDE", 5, "MESSAGE_NAME@rate_hz"),

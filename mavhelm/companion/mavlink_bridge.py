@@ -189,6 +189,8 @@ class MavlinkBridge:
         elif kind == "GPS_RAW_INT":
             post("GPS_FIX", float(msg.fix_type))
             if msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:
+                if abs(msg.lat) > 900_000_000 or abs(msg.lon) > 1_800_000_000:
+                    raise ValueError(f"lat/lon {msg.lat}/{msg.lon} (1e-7 deg) is not on the earth")
                 x, y = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7)
                 post("GPS_X", x)
                 post("GPS_Y", y)
@@ -205,6 +207,8 @@ class MavlinkBridge:
         elif kind == "GLOBAL_POSITION_INT":
             if self.ekf_position_ok is False or (msg.lat == 0 and msg.lon == 0):
                 return
+            if abs(msg.lat) > 900_000_000 or abs(msg.lon) > 1_800_000_000:
+                raise ValueError(f"lat/lon {msg.lat}/{msg.lon} (1e-7 deg) is not on the earth")
             x, y = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7)
             post("AP_X", x)
             post("AP_Y", y)

@@ -1,9 +1,9 @@
 """The simulator's flat earth: latitude/longitude ↔ metres east/north of the home point.
 
 A plane with WGS-84 radii of curvature at the origin, as a SITL's world is: simple and fast,
-but not a geodesic (4.4 cm off at 1 km and 4.4 m at 10 km, at 56° N). The companion converts
-with ``mavhelm.core.geodesy`` instead; at the few hundred metres of a simulated mission the two
-agree to millimetres.
+but not a geodesic (4.4 cm off in distance at 1 km and 4.4 m at 10 km, at 56° N). The
+companion converts with ``mavhelm.core.geodesy`` instead; the two place a point 300 m from
+the origin within 13 mm of each other (0.07 mm along a meridian), pinned by a test.
 """
 
 from __future__ import annotations

@@ -1,0 +1,412 @@
+"""The autopilot link: MAVLink 2 over TCP, UDP or a serial line, that never stalls the helm.
+
+pymavlink does the protocol (framing, CRC, encoding; ``MAVLink`` objects of the
+ardupilotmega v2 dialect, so every frame we send is MAVLink 2). The transport is ours, because
+pymavlink's connections reconnect with blocking sleeps and print to stdout: a helm that ticks
+at 10 Hz must never wait on a socket. Here
+
+- connecting is non-blocking and retried with backoff (1 s doubling to 8 s), so the companion
+  may start before the autopilot (real ArduPilot SITL opens its SERIAL1 port late, a serial
+  autopilot may boot after the companion) and survives the autopilot restarting;
+- reading is bounded per tick (``budget`` bytes): when more is waiting, the oldest bytes are
+  dropped, except that the newest HEARTBEAT from the autopilot in them is always kept, so a
+  flood neither silences the helm nor grows memory, and the mode is never lost;
+- every (re)connection increments ``generation``, so the bridge can refuse to actuate on a link
+  it has not yet heard a HEARTBEAT on;
+- what happens is said once in ``events`` (for the console and the bus), never printed.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import re
+import select
+import socket
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import serial
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+READ_BUDGET = 32 * 1024
+"""Bytes parsed per tick: ~1000 telemetry messages, several times ArduPilot's full stream."""
+READ_CAP = 8 * 1024 * 1024
+"""Bytes drained per tick at most; past it, the kernel's socket buffer holds the rest."""
+RETRY_FIRST_S = 1.0
+RETRY_MAX_S = 8.0
+
+
+class Transport(Protocol):
+    """A byte pipe to the autopilot. ``open`` may raise OSError; ``read`` never blocks."""
+
+    def open(self) -> None: ...
+    def ready(self) -> bool: ...
+    def read(self, limit: int) -> bytes: ...
+    def write(self, data: bytes) -> int: ...
+    def close(self) -> None: ...
+    def fileno(self) -> int | None: ...
+
+
+class TcpTransport:
+    """A TCP client with a non-blocking connect (ArduPilot SITL's ports, a telemetry bridge)."""
+
+    def __init__(self, host: str, port: int) -> None:
+        self.address = (host, port)
+        self.sock: socket.socket | None = None
+        self._connected = False
+        self._unsent = b""
+
+    def open(self) -> None:
+        self.close()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        err = sock.connect_ex(self.address)
+        if err not in (0, errno.EINPROGRESS, errno.EALREADY, errno.EWOULDBLOCK):
+            sock.close()
+            raise OSError(err, os.strerror(err))
+        self.sock = sock
+        self._connected = err == 0
+
+    def ready(self) -> bool:
+        """Connected; raises OSError if the connection attempt failed."""
+        if self.sock is None:
+            return False
+        if not self._connected:
+            _, writable, _ = select.select([], [self.sock], [], 0)
+            if not writable:
+                return False
+            err = self.sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+            if err:
+                raise OSError(err, os.strerror(err))
+            self._connected = True
+        return True
+
+    def read(self, limit: int) -> bytes:
+        assert self.sock is not None
+        try:
+            data = self.sock.recv(min(limit, 1 << 18))
+        except (BlockingIOError, InterruptedError):
+            return b""
+        if not data:
+            raise ConnectionResetError(errno.ECONNRESET, "the autopilot closed the connection")
+        return data
+
+    def write(self, data: bytes) -> int:
+        """Queue behind what the kernel has not taken yet; frames are never cut. Returns the
+        bytes handed to the kernel. More than 64 KiB unsent means the peer is not reading:
+        new frames are dropped (the next tick sends fresh commands) rather than queued."""
+        if self.sock is None or not self._connected:
+            return 0
+        if len(self._unsent) > 65536:
+            data = b""  # keep the whole frames already queued; drop this one
+        pending = self._unsent + data
+        try:
+            sent = self.sock.send(pending) if pending else 0
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        except OSError:
+            return 0  # the read side notices a broken connection and reconnects
+        self._unsent = pending[sent:]
+        return sent
+
+    def close(self) -> None:
+        if self.sock is not None:
+            self.sock.close()
+        self.sock = None
+        self._connected = False
+        self._unsent = b""
+
+    def fileno(self) -> int | None:
+        return None if self.sock is None else self.sock.fileno()
+
+
+class UdpTransport:
+    """``udpin``/``udp``: listen and answer whoever last sent; ``udpout``: send to the address."""
+
+    def __init__(self, host: str, port: int, listen: bool) -> None:
+        self.address = (host, port)
+        self.listen = listen
+        self.peer: tuple[str, int] | None = None if listen else self.address
+        self.sock: socket.socket | None = None
+
+    def open(self) -> None:
+        self.close()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.setblocking(False)
+        if self.listen:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind(self.address)
+        self.sock = sock
+
+    def ready(self) -> bool:
+        return self.sock is not None
+
+    def read(self, limit: int) -> bytes:
+        assert self.sock is not None
+        chunks: list[bytes] = []
+        size = 0
+        while size < limit:
+            try:
+                data, sender = self.sock.recvfrom(65536)
+            except (BlockingIOError, InterruptedError):
+                break
+            except ConnectionRefusedError:
+                continue  # an ICMP answer to an earlier udpout datagram: nobody listening yet
+            if self.listen:
+                self.peer = sender
+            chunks.append(data)
+            size += len(data)
+        return b"".join(chunks)
+
+    def write(self, data: bytes) -> int:
+        if self.sock is None or self.peer is None:
+            return 0
+        try:
+            return self.sock.sendto(data, self.peer)
+        except (BlockingIOError, InterruptedError, ConnectionRefusedError):
+            return 0
+
+    def close(self) -> None:
+        if self.sock is not None:
+            self.sock.close()
+        self.sock = None
+
+    def fileno(self) -> int | None:
+        return None if self.sock is None else self.sock.fileno()
+
+
+class SerialTransport:
+    """A serial line (``/dev/ttyAMA0``, a USB telemetry radio, a pty) through pyserial; a
+    device that vanishes raises on read and is reopened by the link's retry."""
+
+    def __init__(self, device: str, baud: int) -> None:
+        self.device = device
+        self.baud = baud
+        self.port: serial.Serial | None = None
+
+    def open(self) -> None:
+        self.close()
+        try:
+            self.port = serial.Serial(self.device, self.baud, timeout=0, write_timeout=0,
+                                      exclusive=True)
+        except serial.SerialException as exc:
+            raise OSError(errno.EIO, str(exc)) from None
+
+    def ready(self) -> bool:
+        return self.port is not None
+
+    def read(self, limit: int) -> bytes:
+        assert self.port is not None
+        try:
+            waiting = self.port.in_waiting
+            return self.port.read(min(limit, waiting)) if waiting else b""
+        except (serial.SerialException, OSError) as exc:
+            raise OSError(errno.EIO, f"serial device failed: {exc}") from None
+
+    def write(self, data: bytes) -> int:
+        if self.port is None:
+            return 0
+        try:
+            return self.port.write(data) or 0
+        except serial.SerialTimeoutException:
+            return 0  # the line is full: this command is dropped, the next tick sends afresh
+        except (serial.SerialException, OSError):
+            return 0  # the read side notices a vanished device and reopens it
+
+    def close(self) -> None:
+        if self.port is not None:
+            try:
+                self.port.close()
+            except (serial.SerialException, OSError):
+                pass
+        self.port = None
+
+    def fileno(self) -> int | None:
+        return None if self.port is None else self.port.fileno()
+
+
+def transport_for(url: str, baud: int) -> Transport:
+    """``tcp:HOST:PORT``, ``udp:``/``udpin:HOST:PORT`` (listen), ``udpout:HOST:PORT``, or a
+    serial device path (optionally ``DEVICE,BAUD``)."""
+    scheme, _, rest = url.partition(":")
+    scheme = scheme.lower()
+    if scheme in ("tcp", "udp", "udpin", "udpout"):
+        host, _, port_text = rest.rpartition(":")
+        try:
+            port = int(port_text)
+        except ValueError:
+            raise ValueError(f"{url!r}: expected {scheme}:HOST:PORT") from None
+        if not host or not 0 < port < 65536:
+            raise ValueError(f"{url!r}: expected {scheme}:HOST:PORT")
+        if scheme == "tcp":
+            return TcpTransport(host, port)
+        return UdpTransport(host, port, listen=scheme != "udpout")
+    device, _, baud_text = url.partition(",")
+    if baud_text:
+        try:
+            baud = int(baud_text)
+        except ValueError:
+            raise ValueError(f"{url!r}: expected DEVICE or DEVICE,BAUD") from None
+    return SerialTransport(device, baud)
+
+
+def _heartbeat_pattern(system: int, component: int) -> re.Pattern[bytes]:
+    """MAVLink 2 and 1 HEARTBEAT frame headers from one system and component."""
+    sc = re.escape(bytes([system, component]))
+    return re.compile(rb"\xfd[\x01-\x09][\x00\x01]\x00." + sc + rb"\x00\x00\x00"
+                      rb"|\xfe\x09." + sc + rb"\x00", re.DOTALL)
+
+
+@dataclass
+class LinkStats:
+    bytes_read: int = 0
+    bytes_written: int = 0
+    bytes_dropped: int = 0
+    connects: int = 0
+
+
+@dataclass
+class AutopilotLink:
+    """One MAVLink 2 connection to the autopilot; call ``poll`` once a tick."""
+
+    url: str
+    baud: int = 57600
+    system_id: int = 1
+    component_id: int = 191
+    target_system: int = 1
+    target_component: int = 1
+    budget: int = READ_BUDGET
+    transport: Transport | None = None
+    stats: LinkStats = field(default_factory=LinkStats)
+    events: list[str] = field(default_factory=list)
+    generation: int = 0
+    connected: bool = False
+
+    def __post_init__(self) -> None:
+        if self.transport is None:
+            self.transport = transport_for(self.url, self.baud)
+        self.mav = mavlink.MAVLink(self, srcSystem=self.system_id,
+                                   srcComponent=self.component_id)
+        self.mav.robust_parsing = True
+        self._heartbeat = _heartbeat_pattern(self.target_system, self.target_component)
+        self._retry_at = 0.0
+        self._retry_delay = RETRY_FIRST_S
+        self._opening = False
+        self._last_failure = ""
+
+    # -- connection -------------------------------------------------------------------------
+
+    def _fail(self, now: float, why: str) -> None:
+        assert self.transport is not None
+        self.transport.close()
+        was_up = self.connected
+        self.connected = False
+        self._opening = False
+        if was_up:
+            self.events.append(f"link to {self.url} lost: {why}; reconnecting")
+            self._retry_delay = RETRY_FIRST_S
+        elif why != self._last_failure:
+            self.events.append(f"waiting for the autopilot at {self.url}: {why}; "
+                               f"retrying every {self._retry_delay:g}-{RETRY_MAX_S:g} s")
+        self._last_failure = why
+        self._retry_at = now + self._retry_delay
+        self._retry_delay = min(RETRY_MAX_S, self._retry_delay * 2)
+
+    def _connect(self, now: float) -> None:
+        """Advance a connection attempt without blocking."""
+        assert self.transport is not None
+        try:
+            if not self._opening:
+                if now < self._retry_at:
+                    return
+                self.transport.open()
+                self._opening = True
+            if not self.transport.ready():
+                if now - self._retry_at > 5.0:
+                    self._fail(now, "connection attempt timed out")
+                return
+        except OSError as exc:
+            self._fail(now, exc.strerror or str(exc))
+            return
+        self._opening = False
+        self.connected = True
+        self.generation += 1
+        self.stats.connects += 1
+        self._retry_delay = RETRY_FIRST_S
+        self._last_failure = ""
+        self.mav.buf = bytearray()
+        self.mav.buf_index = 0
+        self.events.append(f"link to {self.url} open (MAVLink 2)")
+
+    # -- traffic ----------------------------------------------------------------------------
+
+    def poll(self, now: float) -> list[mavlink.MAVLink_message]:
+        """Connect if need be, then read what arrived within the budget; never blocks."""
+        if not self.connected:
+            self._connect(now)
+            if not self.connected:
+                return []
+        assert self.transport is not None
+        chunks: list[bytes] = []
+        size = 0
+        try:
+            while size < READ_CAP:
+                data = self.transport.read(READ_CAP - size)
+                if not data:
+                    break
+                chunks.append(data)
+                size += len(data)
+        except OSError as exc:
+            self._fail(now, exc.strerror or str(exc))
+            return []
+        if not chunks:
+            return []
+        data = b"".join(chunks)
+        self.stats.bytes_read += len(data)
+        kept: list[mavlink.MAVLink_message] = []
+        if len(data) > self.budget:
+            dropped, data = data[:-self.budget], data[-self.budget:]
+            self.stats.bytes_dropped += len(dropped)
+            heartbeat = self._newest_heartbeat(dropped)
+            if heartbeat is not None:
+                kept.append(heartbeat)
+            self.mav.buf = bytearray()
+            self.mav.buf_index = 0
+        try:
+            kept.extend(self.mav.parse_buffer(data) or [])
+        except mavlink.MAVError as exc:
+            kept.append(mavlink.MAVLink_bad_data(data, str(exc)))
+        return kept
+
+    def _newest_heartbeat(self, data: bytes) -> mavlink.MAVLink_message | None:
+        """The last valid HEARTBEAT from the autopilot in bytes about to be dropped."""
+        starts = [m.start() for m in self._heartbeat.finditer(data)]
+        for start in reversed(starts):
+            parser = mavlink.MAVLink(None)
+            parser.robust_parsing = True
+            for msg in parser.parse_buffer(data[start:start + 32]) or []:
+                if msg.get_type() == "HEARTBEAT":
+                    return msg
+        return None
+
+    def write(self, data: bytes) -> None:
+        """Called by pymavlink's encoder; dropped while the link is down."""
+        if not self.connected:
+            return
+        assert self.transport is not None
+        self.stats.bytes_written += self.transport.write(data)
+
+    def fileno(self) -> int | None:
+        assert self.transport is not None
+        return self.transport.fileno()
+
+    def close(self) -> None:
+        assert self.transport is not None
+        self.transport.close()
+        self.connected = False
+
+    def take_events(self) -> list[str]:
+        out, self.events = self.events, []
+        return out
