@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -19,18 +20,27 @@ def _run(args: argparse.Namespace) -> int:
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
     companion = Companion.build(args.mission, clock, connect=args.connect, alog_path=alog,
                                 echo=lambda line: print(line, flush=True))
-    print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}")
+    print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
+          flush=True)
+    signal.signal(signal.SIGTERM, _stop)
     next_tick = clock.now()
     try:
         while True:
             companion.tick(clock.now())
             next_tick += companion.tick_period
+            if next_tick < clock.now() - companion.tick_period:
+                next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
             clock.sleep_until(next_tick)
     except KeyboardInterrupt:
-        print("mavhelm: stopped")
+        print("mavhelm: stopped", flush=True)
     finally:
         companion.close()
     return 0
+
+
+def _stop(signum, frame) -> None:
+    """SIGTERM (systemd, a test harness) stops the companion as Ctrl-C does: logs closed."""
+    raise KeyboardInterrupt
 
 
 def _sim(args: argparse.Namespace) -> int:

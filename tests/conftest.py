@@ -67,3 +67,26 @@ def rig() -> Iterator[Rig]:
     r = Rig()
     yield r
     r.close()
+
+
+@pytest.fixture
+def real_sitl(tmp_path) -> Iterator[Callable[..., object]]:
+    """``real_sitl(model="motorboat", speedup=10, params={...}, ...)``: a started
+    ``ardupilot.RealSitl`` (the real ArduPilot binary named by MAVHELM_ARDUPILOT) in its own
+    folder under tmp_path; every one started is stopped after the test. Skips when
+    MAVHELM_ARDUPILOT is unset; fails when it is set but wrong."""
+    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+
+    binary = ardupilot_binary()
+    if binary is None:
+        pytest.skip(SKIP_REASON)
+    started: list[RealSitl] = []
+
+    def start(**kwargs) -> RealSitl:
+        sitl = RealSitl(tmp_path / f"ardupilot{len(started)}", binary=binary, **kwargs)
+        started.append(sitl)
+        return sitl.start()
+
+    yield start
+    for sitl in reversed(started):
+        sitl.stop()

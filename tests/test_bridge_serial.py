@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import select
 import tty
 
 import pytest
@@ -59,6 +60,7 @@ def serial_link():
     clock = SimClock(100.0)
     bus = Bus(clock)
     bridge = MavlinkBridge(bus, BridgeConfig(connect=path, baud=115200), ORIGIN)
+    assert bridge.link.connect(clock.now()), "pyserial opens the pty (and flushes its input)"
     bus.subscribe("test", ["*"])
     yield FakeAutopilot(master), bridge, bus, clock
     bridge.close()
@@ -67,6 +69,11 @@ def serial_link():
 
 
 def tick(bridge: MavlinkBridge, bus: Bus, clock: SimClock, dt: float = 0.1) -> dict:
+    """One bridge cycle. A pty hands bytes to the reader asynchronously, so wait (briefly) for
+    what the fake autopilot wrote to become readable, as a real tick period would."""
+    fd = bridge.link.fileno()
+    if fd is not None:
+        select.select([fd], [], [], 0.05)
     now = clock.advance(dt)
     bridge.receive(now)
     bridge.send([], now)
@@ -170,6 +177,7 @@ def test_configured_stream_rates_are_what_is_requested():
     config.streams["VFR_HUD"] = 2.0
     bridge = MavlinkBridge(bus, config, ORIGIN)
     try:
+        assert bridge.link.connect(clock.now())
         ap = FakeAutopilot(master)
         ap.heartbeat(0, armed=False)
         tick(bridge, bus, clock)

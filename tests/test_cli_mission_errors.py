@@ -90,17 +90,44 @@ def test_good_mission_passes_validation_and_then_tries_the_link(tmp_path):
     assert Navigator.from_mission(bus, loaded) is not None
 
 
-def test_unreachable_autopilot_is_one_clear_line(tmp_path):
+def test_an_unreachable_autopilot_is_waited_for_with_one_clear_line(tmp_path):
+    """The companion may start first (a serial autopilot still booting, ArduPilot SITL's late
+    SERIAL1): it keeps ticking and says once what it waits for, then stops on SIGTERM."""
+    path = tmp_path / "good.moos"
+    path.write_text(mission(GOOD_TASKS))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mavhelm.cli", "run", str(path),
+         "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = []
+    try:
+        assert proc.stdout is not None
+        while not any("waiting for the autopilot" in line for line in lines):
+            line = proc.stdout.readline()
+            assert line, f"exited early: {proc.wait()} {proc.stderr.read() if proc.stderr else ''}"
+            lines.append(line)
+    finally:
+        proc.terminate()
+        out, err = proc.communicate(timeout=60)
+    lines += out.splitlines()
+    assert proc.returncode == 0, err
+    waiting = [line for line in lines if "waiting for the autopilot" in line]
+    assert len(waiting) == 1
+    assert waiting[0].rstrip().endswith("  waiting for the autopilot at tcp:127.0.0.1:9: "
+                                        "Connection refused; retrying every 1-8 s")
+    assert lines[-1].strip() == "mavhelm: stopped"
+    assert "Traceback" not in err
+
+
+def test_a_malformed_connect_address_is_refused_before_anything_starts(tmp_path):
     path = tmp_path / "good.moos"
     path.write_text(mission(GOOD_TASKS))
     proc = subprocess.run(
-        [sys.executable, "-m", "mavhelm.cli", "run", str(path),
-         "--connect", "tcp:127.0.0.1:9", "--log-dir", str(tmp_path / "logs")],
-        capture_output=True, text=True, timeout=60)
-    assert proc.returncode == 1
-    assert proc.stderr.strip().splitlines()[-1].startswith(
-        "mavhelm: cannot open the autopilot link:"), proc.stderr
-    assert "Traceback" not in proc.stderr
+        [sys.executable, "-m", "mavhelm.cli", "run", str(path), "--connect", "tcp:nohost",
+         "--log-dir", str(tmp_path / "logs")], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("mavhelm: --connect:0: 'tcp:nohost': expected "
+                                   "tcp:HOST:PORT")
 
 
 def test_a_zero_app_tick_is_refused_where_it_is(tmp_path):

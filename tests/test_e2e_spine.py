@@ -90,7 +90,7 @@ def test_demo_end_mission_stops_the_boat(demo_run):
 
 def _stays_in_manual(run: SimulatedRun) -> None:
     """Replace the operator with a ground station that only watches (no hand-over)."""
-    peer = next(p for p in run.lockstep.peers if p.conn is run.gcs.conn)
+    peer = next(p for p in run.lockstep.peers if getattr(p.end, "conn", None) is run.gcs.conn)
     peer.tick = run.gcs.tick
 
 

@@ -98,7 +98,7 @@ def test_gains_defaults_and_overrides() -> None:
 @pytest.mark.parametrize(
     ("key", "value", "expected"),
     [
-        ("YAW_PID_KQ", "1", "unknown setting 'YAW_PID_KQ' for pHelm (known: AppTick,"),
+        ("YAW_PID_KQ", "1", "unknown setting 'YAW_PID_KQ' for pHelm (did you mean YAW_PID_KP?"),
         ("YAW_PID_KP", "-1", "YAW_PID_KP must be a number in [0, 1000], got -1"),
         ("MAXRUDDER", "0", "MAXRUDDER must be a number in (0, 90], got 0"),
         ("MAXTHRUST", "lots", "MAXTHRUST expects a number in (0, 100], got 'lots'"),

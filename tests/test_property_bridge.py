@@ -26,6 +26,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.link import AutopilotLink
 from mavhelm.companion.mavlink_bridge import (
     ATTITUDE_RATE_AND_THRUST,
     ROVER_MODE_NUMBERS,
@@ -60,34 +61,46 @@ def f32(value: float) -> float:
 # -- the stand-in link --------------------------------------------------------------------------
 
 
-class FakeMavfile:
-    """What MavlinkBridge uses of a mavutil.mavfile: recv, mav (a real MAVLink), close."""
+class FakeTransport:
+    """The byte pipe under the bridge's AutopilotLink: bytes in from ``incoming``, bytes out
+    into ``written``; ``fail_next_read`` makes the next read fail as a reset connection."""
 
-    def __init__(self, source: tuple[int, int] = COMPANION) -> None:
+    def __init__(self) -> None:
         self.written = bytearray()
-        self.mav = mavlink.MAVLink(self, srcSystem=source[0], srcComponent=source[1])
-        self.mav.robust_parsing = True  # as mavutil.mavfile sets it
         self.incoming: deque[bytes] = deque()
-        self.fail_next_recv = False
+        self.fail_next_read = False
+        self.closed = False
+        self.opens = 0
+
+    def open(self) -> None:
+        self.opens += 1
         self.closed = False
 
-    def write(self, data: bytes) -> None:  # the MAVLink object's file
-        self.written += data
+    def ready(self) -> bool:
+        return not self.closed
 
-    def recv(self, n: int = 65536) -> bytes:
-        if self.fail_next_recv:
-            self.fail_next_recv = False
-            raise OSError("connection reset by peer")
+    def write(self, data: bytes) -> int:
+        self.written += data
+        return len(data)
+
+    def read(self, limit: int) -> bytes:
+        if self.fail_next_read:
+            self.fail_next_read = False
+            self.incoming.clear()  # what was in flight on a reset connection is gone
+            raise ConnectionResetError(104, "connection reset by peer")
         if not self.incoming:
             return b""
         chunk = self.incoming.popleft()
-        if len(chunk) > n:
-            self.incoming.appendleft(chunk[n:])
-            chunk = chunk[:n]
+        if len(chunk) > limit:
+            self.incoming.appendleft(chunk[limit:])
+            chunk = chunk[:limit]
         return chunk
 
     def close(self) -> None:
         self.closed = True
+
+    def fileno(self) -> int | None:
+        return None
 
 
 def decode_all(data: bytes | bytearray) -> list[mavlink.MAVLink_message]:
@@ -120,8 +133,9 @@ class Rig:
         self.bus = Bus(self.clock)
         self.bus.subscribe("t", {"MAVLINK_OUTPUT_REFUSED"})
         self.config = config or BridgeConfig()
-        self.conn = FakeMavfile()
-        self.bridge = MavlinkBridge(self.bus, self.config, ORIGIN, connection=self.conn)
+        self.conn = FakeTransport()
+        link = AutopilotLink("tcp:127.0.0.1:5760", transport=self.conn)
+        self.bridge = MavlinkBridge(self.bus, self.config, ORIGIN, link=link)
         self.encoder = mavlink.MAVLink(None)
 
     def frame(self, msg: mavlink.MAVLink_message, source: tuple[int, int] = AUTOPILOT,
@@ -134,7 +148,7 @@ class Rig:
     def tick(self, now: float, chunks=(), mail=(), recv_error: bool = False) -> TickResult:
         self.clock.set(now)
         self.conn.incoming.extend(bytes(c) for c in chunks if c)
-        self.conn.fail_next_recv = recv_error
+        self.conn.fail_next_read = recv_error
         mark = len(self.conn.written)
         self.bridge.receive(now)
         by_receive = decode_all(self.conn.written[mark:])
@@ -474,7 +488,7 @@ def test_nothing_is_sent_while_offline_whatever_is_asked(pairs):
 
 
 def test_the_rig_sees_real_mavlink_both_ways():
-    """Not vacuous: through FakeMavfile the bridge goes online, requests its streams, sends its
+    """Not vacuous: through FakeTransport the bridge goes online, requests its streams, sends its
     heartbeat and a SET_ATTITUDE_TARGET that a fresh parser reads back."""
     rig = Rig(1000.0)
     mail_now = [Message("DESIRED_RUDDER", 10.0, 1000.0, "pHelm"),
@@ -486,11 +500,15 @@ def test_the_rig_sees_real_mavlink_both_ways():
     [target] = result.targets()
     assert target.body_yaw_rate == f32(math.radians(22.5))
     assert target.thrust == 0.5
-    # an OSError from recv loses nothing: the bytes are read in the next tick
+    # a read error drops the connection: offline, said once, and back only with a new
+    # connection and a fresh HEARTBEAT on it
     rig = Rig(1000.0)
     assert not rig.tick(1000.0, [rig.frame(GOOD_HEARTBEAT)], recv_error=True).online
-    assert rig.bus.latest("MAVLINK_ERROR").value == "receive failed: connection reset by peer"
-    assert rig.tick(1000.1).online
+    assert rig.bus.latest("MAVLINK_LINK").value == ("link to tcp:127.0.0.1:5760 lost: "
+                                                    "connection reset by peer; reconnecting")
+    assert not rig.tick(1000.1).online and rig.conn.opens == 1, "retried after 1 s, not at once"
+    assert not rig.tick(1001.1).online and rig.conn.opens == 2
+    assert rig.tick(1001.2, [rig.frame(GOOD_HEARTBEAT)]).online
     # and a frame that arrives a byte at a time lands
     rig = Rig(1000.0)
     assert rig.tick(1000.0, [bytes([b]) for b in rig.frame(GOOD_HEARTBEAT)]).online

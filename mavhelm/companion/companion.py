@@ -14,12 +14,13 @@ from pymavlink import mavutil
 
 from mavhelm.companion.alog import AlogLogger
 from mavhelm.companion.console import StatusConsole
+from mavhelm.companion.link import transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import Clock
 from mavhelm.core.community import Community
 from mavhelm.core.geodesy import Origin, mission_origin
-from mavhelm.core.mission import Mission, load_mission
+from mavhelm.core.mission import Mission, MissionError, load_mission
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
 
@@ -63,6 +64,10 @@ class Plan:
         helm = Helm.from_mission(bus, mission)
         link = BridgeConfig.from_block(mission.process("iMAVLink"), helm.gains.max_rudder)
         if connect is not None:
+            try:
+                transport_for(connect, link.baud)
+            except ValueError as exc:
+                raise MissionError("--connect", 0, str(exc)) from None
             link.connect = connect
         return cls(mission, bus, navigator, helm, link, origin)
 

@@ -16,6 +16,7 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Message
 
 SHOWN_AS: dict[str, Callable[[Message], str]] = {
+    "MAVLINK_LINK": lambda m: m.string,
     "AP_LINK": lambda m: "autopilot link up" if m.value == 1.0 else "autopilot link DOWN",
     "AP_MODE": lambda m: f"autopilot mode {m.string}",
     "AP_ARMED": lambda m: "autopilot armed" if m.value == 1.0 else "autopilot disarmed",

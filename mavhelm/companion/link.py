@@ -391,6 +391,22 @@ class AutopilotLink:
                     return msg
         return None
 
+    def connect(self, now: float) -> bool:
+        """Advance a connection attempt without reading; True once connected."""
+        if not self.connected:
+            self._connect(now)
+        return self.connected
+
+    # the byte counters a lockstep driver waits on (see ``mavhelm.sitl.lockstep``)
+    def socket(self) -> socket.socket | None:
+        return getattr(self.transport, "sock", None)
+
+    def bytes_received(self) -> int:
+        return self.stats.bytes_read
+
+    def bytes_sent(self) -> int:
+        return self.stats.bytes_written
+
     def write(self, data: bytes) -> None:
         """Called by pymavlink's encoder; dropped while the link is down."""
         if not self.connected:

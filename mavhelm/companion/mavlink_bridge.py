@@ -15,11 +15,13 @@ into turn rate and speed = thrust × WP_SPEED.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import Origin
@@ -41,6 +43,9 @@ DEFAULT_STREAMS: dict[str, float] = {
     "SYS_STATUS": 1.0,
 }
 
+
+STREAM_GRACE_S = 5.0
+"""How long after the link comes up every requested stream must have been heard once."""
 
 MAX_STREAM_HZ = 50.0
 MIN_STREAM_HZ = 0.1
@@ -65,10 +70,26 @@ class StreamRate(Kind):
         return name, rate
 
 
+class LinkAddress(Text):
+    """Where the autopilot is: ``tcp:HOST:PORT``, ``udp:HOST:PORT`` (listen),
+    ``udpout:HOST:PORT`` or a serial device (``/dev/ttyAMA0`` or ``/dev/ttyAMA0,921600``)."""
+
+    def describe(self) -> str:
+        return "tcp:HOST:PORT, udp:HOST:PORT, udpout:HOST:PORT or a serial device"
+
+    def parse(self, entry: Entry) -> str:
+        text = super().parse(entry)
+        try:
+            transport_for(text, 57600)
+        except ValueError as exc:
+            raise entry.error(f"{entry.key}: {exc}") from None
+        return text
+
+
 MAVLINK_ID = Number(1, 255, integer=True)
 
 IMAVLINK_SCHEMA = Schema("iMAVLink", (
-    Param("Connect", Text(), "tcp:127.0.0.1:5760",
+    Param("Connect", LinkAddress(), "tcp:127.0.0.1:5760",
           doc="the autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a serial device; "
               "`mavhelm run --connect` overrides it"),
     Param("Baud", Number(300, 12_000_000, integer=True), 57600, "bit/s",
@@ -125,11 +146,16 @@ class MavlinkBridge:
     """One MAVLink connection to the autopilot; ``input`` and ``output`` are its two apps."""
 
     def __init__(self, bus: Bus, config: BridgeConfig, origin: Origin,
-                 connection: mavutil.mavfile | None = None) -> None:
+                 link: AutopilotLink | None = None,
+                 time_source: Callable[[float], None] | None = None) -> None:
         self.bus = bus
         self.config = config
         self.origin = origin
-        self.conn = connection if connection is not None else open_connection(config)
+        self.link = link if link is not None else AutopilotLink(
+            config.connect, config.baud, config.system_id, config.component_id,
+            config.target_system, config.target_component)
+        self.time_source = time_source
+        """Told every autopilot ``time_boot_ms`` (in seconds): the autopilot clock's feed."""
         self.input = AutopilotInput(self)
         self.output = AutopilotOutput(self)
         self.mode: str | None = None
@@ -137,13 +163,18 @@ class MavlinkBridge:
         self.last_heartbeat: float | None = None
         self.link_up = False
         self.online = False
+        self.status: str | None = None
         self.bad_packets = 0
         self.refused_outputs = 0
         self.packets = 0
         self.ekf_position_ok: bool | None = None
+        self._generation = 0
         self._bad_packets_posted = 0
         self._streams_acked = False
         self._streams_requested_at: float | None = None
+        self._up_since: float | None = None
+        self._heard: set[str] = set()
+        self._streams_checked = False
         self._next_heartbeat = 0.0
         self._boot_time: float | None = None
 
@@ -152,11 +183,11 @@ class MavlinkBridge:
     def receive(self, now: float) -> None:
         if self._boot_time is None:
             self._boot_time = now
-        try:
-            messages = read_available(self.conn)
-        except OSError as exc:
-            self.bus.notify("MAVLINK_ERROR", f"receive failed: {exc}", self.input.name)
-            messages = []
+        messages = self.link.poll(now)
+        for event in self.link.take_events():
+            self.input.notify("MAVLINK_LINK", event)
+        if self.link.generation != self._generation:
+            self._forget_autopilot()
         for msg in messages:
             if msg.get_type() == "BAD_DATA":
                 self.bad_packets += 1
@@ -169,6 +200,14 @@ class MavlinkBridge:
                 self.bus.notify("MAVLINK_ERROR", f"{msg.get_type()}: {exc}", self.input.name)
         self._update_link(now)
 
+    def _forget_autopilot(self) -> None:
+        """A new or restored connection: nothing heard before it counts. No actuation until a
+        fresh HEARTBEAT in an online mode arrives on this very link."""
+        self._generation = self.link.generation
+        self.last_heartbeat = None
+        self.mode = None
+        self.armed = False
+
     def _from_autopilot(self, msg: mavlink.MAVLink_message) -> bool:
         return (msg.get_srcSystem() == self.config.target_system
                 and msg.get_srcComponent() == self.config.target_component)
@@ -178,6 +217,10 @@ class MavlinkBridge:
             return
         post = self.input.notify
         kind = msg.get_type()
+        self._heard.add(kind)
+        boot_ms = getattr(msg, "time_boot_ms", None)
+        if boot_ms is not None and self.time_source is not None:
+            self.time_source(boot_ms / 1000.0)
         if kind == "HEARTBEAT":
             if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
                 return
@@ -199,6 +242,8 @@ class MavlinkBridge:
                 if msg.cog != _UNKNOWN_U16:
                     post("GPS_HEADING", msg.cog / 100.0)
         elif kind == "ATTITUDE":
+            if not all(math.isfinite(v) for v in (msg.roll, msg.pitch, msg.yaw, msg.yawspeed)):
+                raise ValueError("non-finite attitude")
             post("INS_YAW", 0.0 - msg.yaw)
             post("INS_HEADING", math.degrees(msg.yaw) % 360.0)
             post("INS_PITCH", msg.pitch)
@@ -233,21 +278,54 @@ class MavlinkBridge:
             self.link_up = up
             self.input.notify("AP_LINK", 1.0 if up else 0.0)
             if up:
+                self._up_since = now
+                self._heard = set()
+                self._streams_checked = False
                 self._request_streams(now)
             else:
                 self._streams_acked = False
-                self.input.notify("MAVLINK_WARNING", "autopilot link lost: no HEARTBEAT for "
-                                  f"{self.config.link_timeout:g} s")
+                if heard is not None:
+                    self.input.notify("MAVLINK_WARNING", "autopilot link lost: no HEARTBEAT "
+                                      f"for {self.config.link_timeout:g} s")
         elif up and not self._streams_acked and self._streams_requested_at is not None \
                 and now - self._streams_requested_at >= 2.0:
             self._request_streams(now)
+        if up and not self._streams_checked and self._up_since is not None \
+                and now - self._up_since >= STREAM_GRACE_S:
+            self._streams_checked = True
+            missing = [n for n, rate in self.config.streams.items()
+                       if rate > 0 and n not in self._heard]
+            if missing:
+                self.input.notify("MAVLINK_WARNING", f"no {', '.join(missing)} from the "
+                                  f"autopilot {STREAM_GRACE_S:g} s after the link came up: "
+                                  "check its stream rates (SRn_* parameters)")
         online = up and self.armed and self.mode in self.config.online_modes
         if online != self.online:
             self.online = online
             self.input.notify("HELM_ONLINE", 1.0 if online else 0.0)
+        status = self._status(up)
+        if status != self.status:
+            self.status = status
+            self.input.notify("HELM_STATUS", status)
         if self.bad_packets != self._bad_packets_posted:
             self._bad_packets_posted = self.bad_packets
             self.input.notify("MAVLINK_BAD_PACKETS", float(self.bad_packets))
+
+    def _status(self, up: bool) -> str:
+        """Whether the helm may drive, and if not, the one reason an operator can act on."""
+        modes = ", ".join(self.config.online_modes)
+        if self.online:
+            return f"ONLINE: autopilot armed in {self.mode}"
+        if not up:
+            if not self.link.connected:
+                return f"offline: no connection to the autopilot at {self.link.url}"
+            if self.last_heartbeat is None:
+                return "offline: connected, waiting for the autopilot's HEARTBEAT"
+            return (f"offline: no HEARTBEAT from the autopilot for "
+                    f"{self.config.link_timeout:g} s")
+        if not self.armed:
+            return f"offline: autopilot disarmed (arm it and select {modes} to hand over)"
+        return f"offline: autopilot in {self.mode}; select {modes} to hand over"
 
     def _request_streams(self, now: float) -> None:
         """Ask for each stream at its rate; repeated every 2 s until the autopilot ACKs."""
@@ -255,7 +333,7 @@ class MavlinkBridge:
         for name, rate in self.config.streams.items():
             msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}")
             interval_us = -1 if rate <= 0 else int(1e6 / rate)
-            self.conn.mav.command_long_send(
+            self.link.mav.command_long_send(
                 self.config.target_system, self.config.target_component,
                 mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msg_id, interval_us, 0, 0, 0, 0, 0)
 
@@ -264,7 +342,7 @@ class MavlinkBridge:
     def send(self, mail: list[Message], now: float) -> None:
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
-            self.conn.mav.heartbeat_send(
+            self.link.mav.heartbeat_send(
                 mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                 mavlink.MAV_STATE_ACTIVE)
         if not self.online:
@@ -278,8 +356,9 @@ class MavlinkBridge:
         yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.config.max_rudder,
                                                     self.config.max_turn_rate))
         thrust_fraction = thrust / 100.0
-        boot_ms = int(max(0.0, now - (self._boot_time or now)) * 1000) & 0xFFFFFFFF
-        self.conn.mav.set_attitude_target_send(
+        boot = now if self._boot_time is None else self._boot_time
+        boot_ms = int(max(0.0, now - boot) * 1000) & 0xFFFFFFFF
+        self.link.mav.set_attitude_target_send(
             boot_ms, self.config.target_system, self.config.target_component,
             ATTITUDE_RATE_AND_THRUST, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, yaw_rate,
             thrust_fraction)
@@ -296,8 +375,12 @@ class MavlinkBridge:
                            f"{name}={value} is not a finite number within ±{limit:g}: sent 0")
         return 0.0
 
+    def send_statustext(self, text: str, severity: int) -> None:
+        """A line for the ground station's message pane (MAVLink's 50 characters at most)."""
+        self.link.mav.statustext_send(severity, text.encode("utf-8", "replace")[:50])
+
     def close(self) -> None:
-        self.conn.close()
+        self.link.close()
 
 
 def rudder_to_turn_rate(rudder: float, max_rudder: float, max_turn_rate: float) -> float:
@@ -337,26 +420,3 @@ class AutopilotOutput(App):
 
     def close(self) -> None:
         self.bridge.close()
-
-
-def read_available(conn: mavutil.mavfile, chunk: int = 65536) -> list[mavlink.MAVLink_message]:
-    """Every message whose bytes have arrived, read in bulk (one syscall per chunk, not two
-    per message as ``recv_msg`` does). Undecodable bytes come back as BAD_DATA messages."""
-    messages: list[mavlink.MAVLink_message] = []
-    while True:
-        data = conn.recv(chunk)
-        try:
-            got = conn.mav.parse_buffer(data)
-        except mavlink.MAVError as exc:
-            got = [mavlink.MAVLink_bad_data(data, str(exc))]
-        if got:
-            messages.extend(got)
-        if not data:
-            return messages
-
-
-def open_connection(config: BridgeConfig) -> mavutil.mavfile:
-    """A pymavlink connection for ``tcp:host:port``, ``udp:…``, ``udpout:…`` or a serial device."""
-    return mavutil.mavlink_connection(
-        config.connect, baud=config.baud, source_system=config.system_id,
-        source_component=config.component_id, dialect="ardupilotmega", autoreconnect=True)

@@ -69,7 +69,7 @@ class SimulatedRun:
         run = cls(mission, clock, sim, companion, gcs, operator, lockstep)
         run.record |= set(record)
         companion.bus.subscribe("harness", ["*"])
-        lockstep.add_peer(companion.bridge.conn, run._companion_tick)
+        lockstep.add_peer(companion.bridge.link, run._companion_tick)
         lockstep.add_peer(gcs.conn, operator.tick)
         return run
 

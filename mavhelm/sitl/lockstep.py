@@ -19,11 +19,13 @@ import fcntl
 import math
 import os
 import select
+import socket
 import struct
 import termios
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 from pymavlink import mavutil
 
@@ -58,9 +60,37 @@ def pending_bytes(sock) -> int:
     return struct.unpack("i", raw)[0]
 
 
+class Endpoint(Protocol):
+    """A peer's end of its connection to the simulator: its socket and byte counters."""
+
+    def socket(self) -> socket.socket | None: ...
+    def bytes_received(self) -> int: ...
+    def bytes_sent(self) -> int: ...
+    def connect(self, now: float) -> bool: ...
+
+
+class MavfileEndpoint:
+    """A pymavlink connection as an endpoint (ground stations, test clients)."""
+
+    def __init__(self, conn: mavutil.mavfile) -> None:
+        self.conn = conn
+
+    def socket(self) -> socket.socket | None:
+        return self.conn.port
+
+    def bytes_received(self) -> int:
+        return self.conn.mav.total_bytes_received
+
+    def bytes_sent(self) -> int:
+        return self.conn.mav.total_bytes_sent
+
+    def connect(self, now: float) -> bool:
+        return True
+
+
 @dataclass
 class Peer:
-    conn: mavutil.mavfile
+    end: Endpoint
     tick: Callable[[float], None]
     link: object | None = None
 
@@ -74,20 +104,26 @@ class Lockstep:
         self.wall_timeout = stall_limit() if wall_timeout is None else wall_timeout
         self.peers: list[Peer] = []
 
-    def add_peer(self, conn: mavutil.mavfile, tick: Callable[[float], None]) -> None:
-        """A pymavlink connection to one of the simulator's TCP ports, and what to run each step."""
-        peer = Peer(conn, tick)
-        peer.link = self._wait_for_link(conn)
+    def add_peer(self, conn: mavutil.mavfile | Endpoint, tick: Callable[[float], None]) -> None:
+        """A connection to one of the simulator's TCP ports (a pymavlink connection or an
+        endpoint with its own byte counters, such as the companion's autopilot link), and what
+        to run each step."""
+        end = MavfileEndpoint(conn) if isinstance(conn, mavutil.mavfile) else conn
+        peer = Peer(end, tick)
+        peer.link = self._wait_for_link(end)
         self.peers.append(peer)
 
-    def _wait_for_link(self, conn: mavutil.mavfile):
-        local = conn.port.getsockname()
+    def _wait_for_link(self, end: Endpoint):
         deadline = time.monotonic() + self.wall_timeout
+        local = None
         while time.monotonic() < deadline:
             self.sim.service(self.clock.now())
-            for link in self.sim.links:
-                if tuple(link.peer[:2]) == tuple(local[:2]):
-                    return link
+            sock = end.socket() if end.connect(self.clock.now()) else None
+            if sock is not None:
+                local = sock.getsockname()
+                for link in self.sim.links:
+                    if tuple(link.peer[:2]) == tuple(local[:2]):
+                        return link
             select.select([], [], [], 0.001)
         raise LockstepError(f"the simulator never accepted the connection from {local}")
 
@@ -101,16 +137,15 @@ class Lockstep:
             select.select([sock], [], [], 0.001)
 
     def _deliver_to_peer(self, peer: Peer) -> None:
-        link, conn = peer.link, peer.conn
-        self._wait(
-            lambda: conn.mav.total_bytes_received + pending_bytes(conn.port) >= link.bytes_sent,
-            conn.port, "a peer to receive the simulator's bytes")
+        link, end = peer.link, peer.end
+        sock = end.socket()
+        self._wait(lambda: end.bytes_received() + pending_bytes(sock) >= link.bytes_sent,
+                   sock, "a peer to receive the simulator's bytes")
 
     def _deliver_to_sim(self, peer: Peer) -> None:
-        link, conn = peer.link, peer.conn
-        self._wait(
-            lambda: link.bytes_received + pending_bytes(link.sock) >= conn.mav.total_bytes_sent,
-            link.sock, "the simulator to receive a peer's bytes")
+        link, end = peer.link, peer.end
+        self._wait(lambda: link.bytes_received + pending_bytes(link.sock) >= end.bytes_sent(),
+                   link.sock, "the simulator to receive a peer's bytes")
 
     def step(self) -> float:
         now = self.clock.advance(self.dt)
