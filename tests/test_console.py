@@ -55,3 +55,30 @@ def test_wall_clock_times_are_shown_as_time_of_day():
     bus.notify("MISSION_ENDED", "AllStop", "pHelm")
     console.on_mail(bus.fetch(console.name), clock.now())
     assert lines == ["10:53:20.2  MISSION ENDED (AllStop holds the vehicle)"]
+
+
+def test_the_helms_events_reach_the_ground_station_with_severities_and_a_rate_limit():
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    sent: list[tuple[str, int]] = []
+    console = StatusConsole(bus, None, statustext=lambda text, sev: sent.append((text, sev)))
+    bus.subscribe(console.name, console.subscriptions())
+
+    def post(**values) -> list[tuple[str, int]]:
+        for name, value in values.items():
+            bus.notify(name, value, "test")
+        before = len(sent)
+        console.on_mail(bus.fetch(console.name), clock.now())
+        return sent[before:]
+
+    assert post(AP_MODE="GUIDED", AP_LINK=1.0, MAVLINK_LINK="open") == [], "the GCS knows those"
+    assert post(HELM_STATUS="ONLINE: autopilot armed in GUIDED") == [
+        ("helm ONLINE: autopilot armed in GUIDED", 5)]
+    assert post(TASK_STARTED="South") == [("task South started", 6)]
+    assert post(Leg_ERROR="starved") == [("Leg_ERROR: starved", 3)]
+    clock.advance(10.0)
+    burst = post(**{f"T{i}_WARNING": "x" for i in range(10)})
+    assert len(burst) == 4 and all(sev == 4 for _, sev in burst), "4 lines a second at most"
+    assert console.gcs_dropped == 6
+    clock.advance(1.0)
+    assert len(post(**{f"U{i}_WARNING": "y" for i in range(10)})) == 4

@@ -95,8 +95,7 @@ class Companion:
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
-        if echo is not None:
-            apps.append(StatusConsole(bus, echo))
+        apps.append(StatusConsole(bus, echo, statustext=bridge.send_statustext))
         return cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
                    1.0 / helm.app_tick)
 

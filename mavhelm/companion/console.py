@@ -1,10 +1,14 @@
-"""What the operator reads on the companion's console: one timestamped line per event.
+"""What the operator reads on the console, and on the ground station: one line per event.
 
 A field engineer watching ``mavhelm run`` over ssh wants to know, without opening a log, that
 the link is up, which mode the autopilot is in, whether the helm is driving and why not, which
 task started or ended and how, and every warning. This app turns those bus variables into
 short lines; a line repeated within ``quiet_s`` is held back and counted, so a flapping link
 cannot scroll everything else away.
+
+The helm's own events (online/offline and why, tasks, warnings, errors, mission end) also go
+to the ground station as STATUSTEXT, with severities a ground station colours, at most
+``GCS_LINES_PER_S`` a second: the operator at the mode switch sees what the helm is doing.
 """
 
 from __future__ import annotations
@@ -31,6 +35,28 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
 ALERT_SUFFIXES = ("_WARNING", "_ERROR", "_REFUSED")
 """Any variable ending so is shown as it is: ``LEG3_ERROR: starved …``."""
 
+SEVERITY_NOTICE, SEVERITY_INFO = 5, 6
+SEVERITY_ERROR, SEVERITY_WARNING = 3, 4
+GCS_SEVERITY: dict[str, int] = {
+    "HELM_STATUS": SEVERITY_NOTICE,
+    "MISSION_ENDED": SEVERITY_NOTICE,
+    "TASK_STARTED": SEVERITY_INFO,
+    "TASK_ENDED": SEVERITY_INFO,
+}
+"""The helm's events a ground station is told about (MAV_SEVERITY); alerts by suffix below."""
+GCS_LINES_PER_S = 4.0
+
+
+def gcs_severity(name: str) -> int | None:
+    """The MAV_SEVERITY a variable goes to the ground station with, or None (console only)."""
+    if name in GCS_SEVERITY:
+        return GCS_SEVERITY[name]
+    if name.endswith("_ERROR"):
+        return SEVERITY_ERROR
+    if name.endswith(("_WARNING", "_REFUSED")):
+        return SEVERITY_WARNING
+    return None
+
 
 def _clock_text(now: float) -> str:
     """Wall time of day (UTC) on the vehicle; seconds since start in a simulated run."""
@@ -40,16 +66,22 @@ def _clock_text(now: float) -> str:
 
 
 class StatusConsole(App):
-    """Prints the events in ``SHOWN_AS`` and every ``*_WARNING``/``*_ERROR``/``*_REFUSED``."""
+    """Prints the events in ``SHOWN_AS`` and every ``*_WARNING``/``*_ERROR``/``*_REFUSED``,
+    and sends the helm's to the ground station through ``statustext(text, severity)``."""
 
     name = "console"
 
-    def __init__(self, bus, echo: Callable[[str], None] = print, quiet_s: float = 5.0) -> None:
+    def __init__(self, bus, echo: Callable[[str], None] | None = print, quiet_s: float = 5.0,
+                 statustext: Callable[[str, int], None] | None = None) -> None:
         super().__init__(bus)
         self.echo = echo
+        self.statustext = statustext
         self.quiet_s = quiet_s
         self._last_shown: dict[str, float] = {}
         self._held: dict[str, int] = {}
+        self._gcs_budget = GCS_LINES_PER_S
+        self._gcs_time: float | None = None
+        self.gcs_dropped = 0
 
     def subscriptions(self) -> set[str]:
         return {"*"}
@@ -57,8 +89,25 @@ class StatusConsole(App):
     def on_mail(self, mail: list[Message], now: float) -> None:
         for msg in mail:
             text = self.describe(msg)
-            if text is not None:
-                self._show(text, now)
+            if text is None:
+                continue
+            if self._show(text, now) and self.statustext is not None:
+                severity = gcs_severity(msg.name)
+                if severity is not None:
+                    self._to_gcs(text, severity, now)
+
+    def _to_gcs(self, text: str, severity: int, now: float) -> None:
+        """A token bucket: a burst of GCS_LINES_PER_S lines, then that many a second."""
+        if self._gcs_time is not None:
+            self._gcs_budget = min(GCS_LINES_PER_S,
+                                   self._gcs_budget + (now - self._gcs_time) * GCS_LINES_PER_S)
+        self._gcs_time = now
+        if self._gcs_budget < 1.0:
+            self.gcs_dropped += 1
+            return
+        self._gcs_budget -= 1.0
+        assert self.statustext is not None
+        self.statustext(text, severity)
 
     @staticmethod
     def describe(msg: Message) -> str | None:
@@ -69,12 +118,15 @@ class StatusConsole(App):
             return f"{msg.name}: {msg.string}"
         return None
 
-    def _show(self, text: str, now: float) -> None:
+    def _show(self, text: str, now: float) -> bool:
+        """Print the line unless it repeats one shown within ``quiet_s``; True if shown."""
         last = self._last_shown.get(text)
         if last is not None and now - last < self.quiet_s:
             self._held[text] = self._held.get(text, 0) + 1
-            return
+            return False
         held = self._held.pop(text, 0)
         suffix = f"  (and {held} more like it)" if held else ""
         self._last_shown[text] = now
-        self.echo(f"{_clock_text(now)}  {text}{suffix}")
+        if self.echo is not None:
+            self.echo(f"{_clock_text(now)}  {text}{suffix}")
+        return True
