@@ -12,9 +12,9 @@ from mavhelm.core.errors import LocatedError
 
 def _run(args: argparse.Namespace) -> int:
     from mavhelm.companion.companion import Companion
-    from mavhelm.core.clock import WallClock
+    from mavhelm.core.clock import AutopilotClock, WallClock
 
-    clock = WallClock()
+    clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
     log_dir = Path(args.log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
@@ -78,6 +78,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--connect", help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
                      "serial device such as /dev/ttyAMA0 (default: the mission's Connect)")
     run.add_argument("--log-dir", default="runs", help="where the .alog goes (default runs/)")
+    run.add_argument("--clock", choices=["wall", "autopilot"], default="wall",
+                     help="pace the helm on the wall clock (a real vehicle) or on the "
+                          "autopilot's time_boot_ms (a SITL run with --speedup)")
     run.set_defaults(func=_run)
 
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")

@@ -77,3 +77,46 @@ def test_community_order_makes_one_tick_from_sensor_to_actuator():
     community = Community(bus, [sensor, nav, helm])
     community.tick(clock.advance(0.1))
     assert nav.heard == [["GPS_X"]] and helm.heard == [["NAV_X"]]
+
+
+class FakeWall:
+    def __init__(self) -> None:
+        self.t = 50.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_autopilot_clock_follows_a_sped_up_autopilot():
+    from mavhelm.core.clock import AutopilotClock
+
+    wall = FakeWall()
+    clock = AutopilotClock(wall, epoch=1000.0)
+    assert clock.now() == 1000.0
+    wall.t += 1.0
+    assert clock.now() == 1001.0, "before any stamp: wall rate"
+    for i in range(30):  # the autopilot runs 20x: 2 s of its time per 0.1 s of wall time
+        clock.observe(10.0 + 2.0 * i)
+        wall.t += 0.1
+    assert clock.warp == pytest.approx(20.0)
+    at = clock.now()
+    wall.t += 0.5
+    assert clock.now() == pytest.approx(at + 10.0), "silent autopilot: the measured rate"
+    clock.observe(10.0 + 2.0 * 30)  # a stamp behind the extrapolation: time does not go back
+    assert clock.now() >= at + 10.0 - 1e-9
+    before = clock.now()
+    clock.observe(0.5)  # rebooted: stamps restart from zero
+    wall.t += 0.1
+    assert clock.now() >= before
+    clock.observe(2.5)
+    assert clock.now() >= before
+
+
+def test_autopilot_clock_sleeps_in_autopilot_time():
+    from mavhelm.core.clock import AutopilotClock
+
+    clock = AutopilotClock()
+    clock.warp = 50.0
+    t0 = clock.now()
+    clock.sleep_until(t0 + 1.0)  # one autopilot second at 50x is 20 ms of wall time
+    assert clock.now() >= t0 + 1.0

@@ -82,3 +82,11 @@ def test_the_helms_events_reach_the_ground_station_with_severities_and_a_rate_li
     assert console.gcs_dropped == 6
     clock.advance(1.0)
     assert len(post(**{f"U{i}_WARNING": "y" for i in range(10)})) == 4
+
+
+def test_states_posted_every_heartbeat_are_shown_only_when_they_change():
+    tick = rig()
+    assert tick(1.0, AP_MODE="MANUAL") == ["t+     1.0s  autopilot mode MANUAL"]
+    assert tick(2.0, AP_MODE="MANUAL") == []
+    assert tick(9.0, AP_MODE="MANUAL") == [], "not even after the quiet time"
+    assert tick(9.5, AP_MODE="GUIDED") == ["t+     9.5s  autopilot mode GUIDED"]

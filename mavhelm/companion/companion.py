@@ -10,11 +10,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pymavlink import mavutil
-
 from mavhelm.companion.alog import AlogLogger
 from mavhelm.companion.console import StatusConsole
-from mavhelm.companion.link import transport_for
+from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import Clock
@@ -84,14 +82,15 @@ class Companion:
 
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
-              connection: mavutil.mavfile | None = None,
+              link: AutopilotLink | None = None,
               alog_path: str | Path | None = None,
               alog_opened_on: float | None = None,
               echo: Callable[[str], None] | None = None) -> Companion:
         """Everything is configured (and the mission validated) before the link is opened."""
         plan = Plan.from_mission(mission, clock, connect=connect)
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
-        bridge = MavlinkBridge(bus, plan.link, plan.origin, connection)
+        bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
+                               time_source=getattr(clock, "observe", None))
         apps = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))

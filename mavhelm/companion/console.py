@@ -32,6 +32,9 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
 }
 """Variables shown as they are posted, and how."""
 
+STATES = frozenset({"AP_LINK", "AP_MODE", "AP_ARMED", "HELM_STATUS"})
+"""Posted on every HEARTBEAT or tick: shown only when the value changes."""
+
 ALERT_SUFFIXES = ("_WARNING", "_ERROR", "_REFUSED")
 """Any variable ending so is shown as it is: ``LEG3_ERROR: starved …``."""
 
@@ -79,6 +82,7 @@ class StatusConsole(App):
         self.quiet_s = quiet_s
         self._last_shown: dict[str, float] = {}
         self._held: dict[str, int] = {}
+        self._states: dict[str, float | str] = {}
         self._gcs_budget = GCS_LINES_PER_S
         self._gcs_time: float | None = None
         self.gcs_dropped = 0
@@ -88,6 +92,10 @@ class StatusConsole(App):
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         for msg in mail:
+            if msg.name in STATES:
+                if self._states.get(msg.name) == msg.value:
+                    continue
+                self._states[msg.name] = msg.value
             text = self.describe(msg)
             if text is None:
                 continue

@@ -8,6 +8,7 @@ can run in seconds and every run is repeatable.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 
@@ -46,3 +47,58 @@ class SimClock:
         if t < self._t:
             raise ValueError("a simulated clock cannot run backwards")
         self._t = t
+
+
+class AutopilotClock:
+    """Time as the autopilot counts it: MOOS's time warp, measured instead of configured.
+
+    A SITL run with ``--speedup 20`` (or a slowed-down one on a loaded machine) lives on its
+    own clock, which it stamps on every message as ``time_boot_ms``; a companion paced by the
+    wall clock would see 3 s GUIDED time-outs pass in 0.15 s. This clock is fed those stamps
+    (``observe``) and between them runs at the rate the autopilot has been running, so tick
+    periods, task time-outs and link time-outs are all in autopilot seconds. If the autopilot
+    falls silent the clock keeps going at the last rate, so the link time-out still fires; if
+    it reboots (its stamps jump back), the clock carries on without running backwards.
+    ``now()`` starts at the wall-clock epoch, so logs carry a real date.
+    """
+
+    WINDOW_S = 2.0
+    """Wall seconds of observations the rate is measured over."""
+
+    def __init__(self, wall: Callable[[], float] = time.monotonic,
+                 epoch: float | None = None) -> None:
+        self._wall = wall
+        start = wall()
+        self._t_obs = time.time() if epoch is None else float(epoch)
+        self._wall_obs = start
+        self._boot_offset: float | None = None
+        self._last_boot: float | None = None
+        self._samples: list[tuple[float, float]] = []
+        self.warp = 1.0
+        self._last_now = self._t_obs
+
+    def now(self) -> float:
+        t = self._t_obs + self.warp * (self._wall() - self._wall_obs)
+        self._last_now = max(self._last_now, t)
+        return self._last_now
+
+    def observe(self, boot_s: float) -> None:
+        """The autopilot's ``time_boot_ms`` / 1000 from a message just received."""
+        wall = self._wall()
+        if self._boot_offset is None or (self._last_boot is not None
+                                         and boot_s < self._last_boot - 1.0):
+            self._boot_offset = self.now() - boot_s  # first stamp, or the autopilot rebooted
+            self._samples = []
+        self._last_boot = boot_s
+        self._samples.append((wall, boot_s))
+        while self._samples and wall - self._samples[0][0] > self.WINDOW_S:
+            self._samples.pop(0)
+        first_wall, first_boot = self._samples[0]
+        if wall - first_wall >= 0.2 and boot_s > first_boot:
+            self.warp = min(1000.0, max(0.01, (boot_s - first_boot) / (wall - first_wall)))
+        self._t_obs = boot_s + self._boot_offset
+        self._wall_obs = wall
+
+    def sleep_until(self, t: float) -> None:
+        while (ahead := t - self.now()) > 0:
+            time.sleep(min(0.02, ahead / self.warp))
