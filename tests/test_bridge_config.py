@@ -35,7 +35,14 @@ def test_settings_are_read():
     ("Conect = tcp:127.0.0.1:5760", 5,
      "unknown setting 'Conect' for iMAVLink (did you mean Connect? known: Connect,"),
     ("OnlineModes = GUIDED, AUTOPILOT", 5, "OnlineModes expects one of MANUAL"),
-    ("Actuation = rc_override", 5, "not supported yet"),
+    ("Actuation = rc_override", 3, "Actuation = rc_override needs EngageChannel"),
+    ("Actuation = rc_override\nEngageChannel = 17", 6,
+     "EngageChannel must be a whole number in [1, 16], got 17"),
+    ("Servo = WINCH@9", 5, "Servo expects NAME@output:min-max"),
+    ("Servo = WINCH@17:1100-1900", 5, "Servo WINCH: output must be 1-16, got 17"),
+    ("Servo = WINCH@9:1900-1100", 5, "PWM range must be min < max"),
+    ("Servo = WINCH@9:1100-1900\nServo = LIGHTS@9:1000-2000", 6,
+     "Servo LIGHTS@9 clashes with WINCH@9: one name per output"),
     ("Stream = ATTITUDE", 5, "MESSAGE_NAME@rate_hz"),
     ("Stream = NOT_A_MESSAGE@5", 5, "MESSAGE_NAME@rate_hz"),
     ("Stream = ATTITUDE@fast", 5, "Stream ATTITUDE rate expects a number"),
@@ -46,3 +53,12 @@ def test_mistakes_are_refused_where_they_are(body, line, words):
         config(body)
     assert str(err.value).startswith(f"boat.moos:{line}: ")
     assert words in str(err.value)
+
+
+def test_rc_override_defaults_to_manual_and_asks_for_rc_channels():
+    cfg = config("Actuation = rc_override\nEngageChannel = 7\nServo = winch@9:1100-1900")
+    assert cfg.actuation == "rc_override" and cfg.engage_channel == 7 and cfg.engage_pwm == 1800
+    assert cfg.online_modes == ("MANUAL",), "rc_override is for vehicles run in MANUAL"
+    assert cfg.streams["RC_CHANNELS"] == 5.0
+    assert [(s.name, s.channel, s.pwm(-100), s.pwm(0), s.pwm(100)) for s in cfg.servos] == [
+        ("WINCH", 9, 1100, 1500, 1900)]

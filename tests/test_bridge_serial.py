@@ -23,18 +23,26 @@ from mavhelm.core.geodesy import Origin
 ORIGIN = Origin(56.4120, -5.4760)
 
 
+_AUTOPILOT: dict[int, FakeAutopilot] = {}
+"""The fake autopilot of each bridge under test, so ``tick`` can wait for its bytes."""
+
+
 class FakeAutopilot:
     """Writes ArduPilot-shaped packets into the master side of a pty."""
 
     def __init__(self, fd: int) -> None:
         self.fd = fd
+        self.written = 0
         self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         self.parser = mavlink.MAVLink(None)
 
     def send(self, msg) -> bytes:
         data = msg.pack(self.mav)
-        os.write(self.fd, data)
+        self.write(data)
         return data
+
+    def write(self, data: bytes) -> None:
+        self.written += os.write(self.fd, data)
 
     def heartbeat(self, custom_mode: int, armed: bool) -> None:
         base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (
@@ -62,17 +70,27 @@ def serial_link():
     bridge = MavlinkBridge(bus, BridgeConfig(connect=path, baud=115200), ORIGIN)
     assert bridge.link.connect(clock.now()), "pyserial opens the pty (and flushes its input)"
     bus.subscribe("test", ["*"])
-    yield FakeAutopilot(master), bridge, bus, clock
+    ap = FakeAutopilot(master)
+    _AUTOPILOT[id(bridge)] = ap
+    yield ap, bridge, bus, clock
+    del _AUTOPILOT[id(bridge)]
     bridge.close()
     os.close(master)
     os.close(slave)
 
 
 def tick(bridge: MavlinkBridge, bus: Bus, clock: SimClock, dt: float = 0.1) -> dict:
-    """One bridge cycle. A pty hands bytes to the reader asynchronously, so wait (briefly) for
-    what the fake autopilot wrote to become readable, as a real tick period would."""
+    """One bridge cycle. A pty hands bytes to the reader asynchronously: first wait until all
+    the fake autopilot wrote has become readable (or, without one, briefly)."""
     fd = bridge.link.fileno()
-    if fd is not None:
+    ap = _AUTOPILOT.get(id(bridge))
+    if fd is not None and ap is not None:
+        for _ in range(200):
+            if bridge.link.bytes_received() + bridge.link.transport.port.in_waiting \
+                    >= ap.written:
+                break
+            select.select([fd], [], [], 0.01)
+    elif fd is not None:
         select.select([fd], [], [], 0.05)
     now = clock.advance(dt)
     bridge.receive(now)
@@ -121,11 +139,11 @@ def test_garbage_and_corrupt_packets_are_counted_and_skipped(serial_link):
     ap, bridge, bus, clock = serial_link
     ap.heartbeat(15, armed=True)
     tick(bridge, bus, clock)
-    os.write(ap.fd, b"\x00garbage\xff\xfe NMEA? $GPGGA,,,*00\r\n")
+    ap.write(b"\x00garbage\xff\xfe NMEA? $GPGGA,,,*00\r\n")
     good = mavlink.MAVLink_attitude_message(0, 0, 0, math.radians(45.0), 0, 0, 0)
     data = bytearray(good.pack(ap.mav))
     data[12] ^= 0xFF  # corrupt the payload: the CRC no longer matches
-    os.write(ap.fd, bytes(data))
+    ap.write(bytes(data))
     ap.send(mavlink.MAVLink_attitude_message(0, 0, 0, math.radians(90.0), 0, 0, 0))
     got = tick(bridge, bus, clock)
     assert got["MAVLINK_BAD_PACKETS"] >= 1

@@ -43,7 +43,8 @@ def test_a_repeated_line_is_held_back_then_counted():
     assert len(tick(0.0, GPS_WARNING="flaky")) == 1
     assert tick(1.0, GPS_WARNING="flaky") == []
     assert tick(2.0, GPS_WARNING="flaky") == []
-    assert tick(6.0, GPS_WARNING="flaky") == ["t+     6.0s  GPS_WARNING: flaky  (and 2 more like it)"]
+    assert tick(6.0, GPS_WARNING="flaky") == [
+        "t+     6.0s  GPS_WARNING: flaky  (and 2 more like it)"]
 
 
 def test_wall_clock_times_are_shown_as_time_of_day():

@@ -116,8 +116,8 @@ FOUND = [
      "SENSOR_XY is not supported yet (pNav has no SENSOR setting today); remove it"),
     ("pNav", "LSQ_TIMEOUT = 30",
      "LSQ_TIMEOUT is not supported yet (pNav has no LSQ setting today); remove it"),
-    ("iMAVLink", "Actuation = rc_override",
-     "Actuation = rc_override is not supported yet; expected one of guided"),
+    ("iMAVLink", "Actuation = rc_override_please",
+     "Actuation expects one of guided, rc_override, got 'rc_override_please'"),
 ]
 
 

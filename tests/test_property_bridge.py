@@ -26,14 +26,13 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.actuation import ATTITUDE_RATE_AND_THRUST, rudder_to_turn_rate
 from mavhelm.companion.link import AutopilotLink
 from mavhelm.companion.mavlink_bridge import (
-    ATTITUDE_RATE_AND_THRUST,
     ROVER_MODE_NUMBERS,
     ROVER_MODES,
     BridgeConfig,
     MavlinkBridge,
-    rudder_to_turn_rate,
 )
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock

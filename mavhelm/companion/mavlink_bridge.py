@@ -21,7 +21,15 @@ from dataclasses import dataclass, field
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.actuation import (
+    GCS_SYSID_PARAMS,
+    Actuation,
+    AutopilotView,
+    Guided,
+    RcOverride,
+)
 from mavhelm.companion.link import AutopilotLink, transport_for
+from mavhelm.companion.servos import Servo, ServoOutputs, ServoSpec
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import Origin
@@ -32,7 +40,6 @@ ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
 ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
 
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
-ATTITUDE_RATE_AND_THRUST = 0x03
 _UNKNOWN_U16 = 65535
 
 DEFAULT_STREAMS: dict[str, float] = {
@@ -104,8 +111,18 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("OnlineModes", ChoiceList(Choice(tuple(ROVER_MODE_NUMBERS))), ("GUIDED",),
           doc="the helm drives only while the autopilot is armed in one of these",
           attr="online_modes"),
-    Param("Actuation", Choice(("guided",), not_yet=("rc_override",)), "guided",
-          doc="how helm output reaches the autopilot: SET_ATTITUDE_TARGET in GUIDED"),
+    Param("Actuation", Choice(("guided", "rc_override")), "guided",
+          doc="guided: SET_ATTITUDE_TARGET in GUIDED; rc_override: RC_CHANNELS_OVERRIDE in "
+              "MANUAL, engaged by an RC switch (see docs/actuation.md)"),
+    Param("EngageChannel", Number(1, 16, integer=True), None,
+          doc="rc_override: the RC channel whose switch hands the vehicle to the helm "
+              "(required with rc_override)", attr="engage_channel"),
+    Param("EngagePWM", Number(900, 2200, integer=True), 1800, "µs",
+          "rc_override: the helm may drive while the engage channel is at or above this",
+          attr="engage_pwm"),
+    Param("Servo", ServoSpec(), [], repeat=True, attr="servos",
+          doc="a named auxiliary actuator on a servo output: DESIRED_<NAME> in percent "
+              "(-100..100) becomes DO_SET_SERVO with PWM min..max"),
     Param("MaxTurnRate", Number(0.0, 360.0, lo_open=True), 45.0, "deg/s",
           "turn rate commanded at full rudder (MAXRUDDER)", attr="max_turn_rate"),
     Param("LinkTimeOut", Number(1.0, 60.0), 3.0, "s",
@@ -128,6 +145,9 @@ class BridgeConfig:
     target_component: int = 1
     online_modes: tuple[str, ...] = ("GUIDED",)
     actuation: str = "guided"
+    engage_channel: int | None = None
+    engage_pwm: int = 1800
+    servos: list[Servo] = field(default_factory=list)
     max_turn_rate: float = 45.0
     max_rudder: float = 20.0
     link_timeout: float = 3.0
@@ -135,10 +155,25 @@ class BridgeConfig:
 
     @classmethod
     def from_block(cls, block: Block | None, max_rudder: float = 20.0) -> BridgeConfig:
-        settings = IMAVLINK_SCHEMA.read(block or Block("ProcessConfig", "iMAVLink", "", 0))
+        block = block or Block("ProcessConfig", "iMAVLink", "", 0)
+        settings = IMAVLINK_SCHEMA.read(block)
         rates = settings.pop("stream_rates")
         cfg = cls(max_rudder=max_rudder, **settings)
         cfg.streams.update(rates)
+        if cfg.actuation == "rc_override":
+            if cfg.engage_channel is None:
+                raise block.error("Actuation = rc_override needs EngageChannel: the RC switch "
+                                  "that hands the vehicle to the helm in MANUAL")
+            if block.entry("OnlineModes") is None:
+                cfg.online_modes = ("MANUAL",)
+            cfg.streams.setdefault("RC_CHANNELS", 5.0)
+        seen: dict[str, Servo] = {}
+        for entry, servo in zip(block.all("Servo"), cfg.servos, strict=True):
+            for other in seen.values():
+                if other.name == servo.name or other.channel == servo.channel:
+                    raise entry.error(f"Servo {servo.name}@{servo.channel} clashes with "
+                                      f"{other.name}@{other.channel}: one name per output")
+            seen[servo.name] = servo
         return cfg
 
 
@@ -156,6 +191,11 @@ class MavlinkBridge:
             config.target_system, config.target_component)
         self.time_source = time_source
         """Told every autopilot ``time_boot_ms`` (in seconds): the autopilot clock's feed."""
+        self.actuation = make_actuation(config)
+        self.servos = ServoOutputs(tuple(config.servos), config.target_system,
+                                   config.target_component)
+        self.view = AutopilotView()
+        self._params_requested_at: float | None = None
         self.input = AutopilotInput(self)
         self.output = AutopilotOutput(self)
         self.mode: str | None = None
@@ -207,6 +247,8 @@ class MavlinkBridge:
         self.last_heartbeat = None
         self.mode = None
         self.armed = False
+        self.view = AutopilotView()
+        self._params_requested_at = None
 
     def _from_autopilot(self, msg: mavlink.MAVLink_message) -> bool:
         return (msg.get_srcSystem() == self.config.target_system
@@ -263,10 +305,21 @@ class MavlinkBridge:
                 post("AP_YAW", -math.radians(msg.hdg / 100.0))
         elif kind == "EKF_STATUS_REPORT":
             self.ekf_position_ok = bool(msg.flags & mavlink.EKF_POS_HORIZ_ABS)
+        elif kind == "PARAM_VALUE":
+            name = msg.param_id.rstrip("\x00") if isinstance(msg.param_id, str) else ""
+            if name and math.isfinite(msg.param_value):
+                self.view.params[name] = float(msg.param_value)
+        elif kind == "RC_CHANNELS":
+            count = max(0, min(18, int(msg.chancount)))
+            self.view.rc = [int(getattr(msg, f"chan{i}_raw")) for i in range(1, count + 1)]
         elif kind == "COMMAND_ACK":
             if (msg.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
                     and msg.result == mavlink.MAV_RESULT_ACCEPTED):
                 self._streams_acked = True
+            if msg.command == mavlink.MAV_CMD_DO_SET_SERVO:
+                report = self.servos.acknowledged(msg.result)
+                if report is not None:
+                    post("MAVLINK_WARNING", report)
             post("AP_COMMAND_ACK", f"command={msg.command},result={msg.result}")
         elif kind == "STATUSTEXT":
             post("AP_STATUSTEXT", msg.text)
@@ -299,11 +352,17 @@ class MavlinkBridge:
                 self.input.notify("MAVLINK_WARNING", f"no {', '.join(missing)} from the "
                                   f"autopilot {STREAM_GRACE_S:g} s after the link came up: "
                                   "check its stream rates (SRn_* parameters)")
-        online = up and self.armed and self.mode in self.config.online_modes
+        if up:
+            self._request_params(now)
+        refusal = self.actuation.refusal(self.view) if up else None
+        online = (up and self.armed and self.mode in self.config.online_modes
+                  and refusal is None)
         if online != self.online:
             self.online = online
             self.input.notify("HELM_ONLINE", 1.0 if online else 0.0)
-        status = self._status(up)
+            if not online and self.link.connected:
+                self.actuation.release(self.link.mav)
+        status = self._status(up, refusal)
         if status != self.status:
             self.status = status
             self.input.notify("HELM_STATUS", status)
@@ -311,7 +370,24 @@ class MavlinkBridge:
             self._bad_packets_posted = self.bad_packets
             self.input.notify("MAVLINK_BAD_PACKETS", float(self.bad_packets))
 
-    def _status(self, up: bool) -> str:
+    def _request_params(self, now: float) -> None:
+        """Ask for the parameters the actuation profile needs; again every 2 s until known."""
+        wanted = [n for n in self.actuation.wanted_params() if n not in self.view.params]
+        if isinstance(self.actuation, RcOverride):
+            wanted += [n for n in self.actuation.missing(self.view.params)
+                       if n not in wanted and n not in GCS_SYSID_PARAMS]
+            if any(n in self.view.params for n in GCS_SYSID_PARAMS):
+                wanted = [n for n in wanted if n not in GCS_SYSID_PARAMS]
+        if not wanted or (self._params_requested_at is not None
+                          and now - self._params_requested_at < 2.0):
+            return
+        self._params_requested_at = now
+        for name in wanted:
+            self.link.mav.param_request_read_send(self.config.target_system,
+                                                  self.config.target_component,
+                                                  name.encode(), -1)
+
+    def _status(self, up: bool, refusal: str | None = None) -> str:
         """Whether the helm may drive, and if not, the one reason an operator can act on."""
         modes = ", ".join(self.config.online_modes)
         if self.online:
@@ -325,7 +401,9 @@ class MavlinkBridge:
                     f"{self.config.link_timeout:g} s")
         if not self.armed:
             return f"offline: autopilot disarmed (arm it and select {modes} to hand over)"
-        return f"offline: autopilot in {self.mode}; select {modes} to hand over"
+        if self.mode not in self.config.online_modes:
+            return f"offline: autopilot in {self.mode}; select {modes} to hand over"
+        return f"offline: {refusal}"
 
     def _request_streams(self, now: float) -> None:
         """Ask for each stream at its rate; repeated every 2 s until the autopilot ACKs."""
@@ -348,22 +426,18 @@ class MavlinkBridge:
         if not self.online:
             return
         desired = {m.name: m.value for m in mail if m.is_double}
+        for servo, pwm in self.servos.update(self.link.mav, desired, now):
+            self.output.notify(f"AP_CMD_SERVO{servo.channel}", float(pwm))
         if "DESIRED_RUDDER" not in desired and "DESIRED_THRUST" not in desired:
             return
         rudder = self._guard("DESIRED_RUDDER", desired.get("DESIRED_RUDDER", 0.0),
                              self.config.max_rudder)
         thrust = self._guard("DESIRED_THRUST", desired.get("DESIRED_THRUST", 0.0), 100.0)
-        yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.config.max_rudder,
-                                                    self.config.max_turn_rate))
-        thrust_fraction = thrust / 100.0
         boot = now if self._boot_time is None else self._boot_time
         boot_ms = int(max(0.0, now - boot) * 1000) & 0xFFFFFFFF
-        self.link.mav.set_attitude_target_send(
-            boot_ms, self.config.target_system, self.config.target_component,
-            ATTITUDE_RATE_AND_THRUST, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, yaw_rate,
-            thrust_fraction)
-        self.output.notify("AP_CMD_YAW_RATE", yaw_rate)
-        self.output.notify("AP_CMD_THRUST", thrust_fraction)
+        sent = self.actuation.drive(self.link.mav, self.view, rudder, thrust, boot_ms)
+        for name, value in sent.items():
+            self.output.notify(name, value)
 
     def _guard(self, name: str, value: float | str, limit: float) -> float:
         """The last line of defence: a demand that is not a finite number within ±limit is
@@ -381,12 +455,6 @@ class MavlinkBridge:
 
     def close(self) -> None:
         self.link.close()
-
-
-def rudder_to_turn_rate(rudder: float, max_rudder: float, max_turn_rate: float) -> float:
-    """Degrees of rudder to a body turn rate (deg/s, positive clockwise), saturated."""
-    fraction = max(-1.0, min(1.0, rudder / max_rudder)) if max_rudder > 0 else 0.0
-    return fraction * max_turn_rate
 
 
 class AutopilotInput(App):
@@ -409,7 +477,8 @@ class AutopilotOutput(App):
         self._mail: list[Message] = []
 
     def subscriptions(self) -> set[str]:
-        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR"}
+        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR",
+                *self.bridge.servos.variables()}
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         self._mail = mail
@@ -420,3 +489,13 @@ class AutopilotOutput(App):
 
     def close(self) -> None:
         self.bridge.close()
+
+
+def make_actuation(config: BridgeConfig) -> Actuation:
+    """The profile the iMAVLink block asks for."""
+    if config.actuation == "rc_override":
+        assert config.engage_channel is not None
+        return RcOverride(config.target_system, config.target_component, config.max_rudder,
+                          config.system_id, config.engage_channel, config.engage_pwm)
+    return Guided(config.target_system, config.target_component, config.max_rudder,
+                  config.max_turn_rate)

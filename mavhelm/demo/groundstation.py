@@ -77,6 +77,14 @@ class GroundStation:
         self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                      float(ROVER_MODE_NUMBERS[name.upper()]))
 
+    def rc_override(self, channel: int, pwm: int) -> None:
+        """Move one RC channel as a pilot's switch would (from this GCS's system id, which
+        ArduPilot obeys only if it is MAV_GCS_SYSID); every other channel left alone."""
+        values = [0xFFFF] * 8  # this MAVLink 1 connection carries channels 1-8
+        values[channel - 1] = pwm
+        self.conn.mav.rc_channels_override_send(self.target_system, self.target_component,
+                                                *values)
+
     def last_ack(self, command: int) -> int | None:
         for _, cmd, result in reversed(self.acks):
             if cmd == command:
@@ -100,9 +108,19 @@ class Operator:
         self.retry = retry
         self._next_try = 0.0
         self.handed_over_at: float | None = None
+        self.switch: tuple[int, int] | None = None
+        """An RC channel and PWM the operator holds (an engage switch), refreshed every 1 s."""
+        self._next_switch = 0.0
+
+    def hold_switch(self, channel: int, pwm: int) -> None:
+        self.switch = (channel, pwm)
+        self._next_switch = 0.0
 
     def tick(self, now: float) -> None:
         self.gcs.tick(now)
+        if self.switch is not None and now >= self._next_switch:
+            self._next_switch = now + 1.0
+            self.gcs.rc_override(*self.switch)
         if self.handed_over_at is not None or self.gcs.mode is None:
             return
         if self.gcs.armed and self.gcs.mode == self.mode:

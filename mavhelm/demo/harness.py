@@ -52,7 +52,7 @@ class SimulatedRun:
               variant: str | None = None, fast_start: bool = True, scenario=None,
               seed: int = 0, alog_path: str | Path | None = None,
               start_heading: float = 0.0, params: dict[str, float] | None = None,
-              record: Iterable[str] = ()) -> SimulatedRun:
+              record: Iterable[str] = (), operator_mode: str = "GUIDED") -> SimulatedRun:
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
         clock = SimClock(0.0)
@@ -64,7 +64,7 @@ class SimulatedRun:
         companion = Companion.build(mission, clock, connect=f"tcp:127.0.0.1:{sim.ports[0]}",
                                     alog_path=alog_path, alog_opened_on=time.time())
         gcs = GroundStation.connect(f"tcp:127.0.0.1:{sim.ports[1]}")
-        operator = Operator(gcs)
+        operator = Operator(gcs, mode=operator_mode)
         lockstep = Lockstep(sim, clock, dt=companion.tick_period)
         run = cls(mission, clock, sim, companion, gcs, operator, lockstep)
         run.record |= set(record)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from mavhelm.core.mission import Block
+from mavhelm.tasks.actuate import SetActuator
 from mavhelm.tasks.base import Task
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.heading import ConstantHeading
@@ -18,6 +19,7 @@ TASK_TYPES: dict[str, type[Task]] = {
     "timeout": Timer,
     "overalltimeout": OverallTimeOut,
     "endmission": EndMission,
+    "setactuator": SetActuator,
 }
 
 

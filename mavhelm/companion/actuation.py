@@ -1,0 +1,181 @@
+"""How the helm's RUDDER and THRUST reach ArduPilot: one class per actuation profile.
+
+Shaped like ArduPilot's own modes: a small base with yes/no questions (``refusal``: why the
+helm may not drive now) and the actions (``drive``, ``release``), one subclass per profile.
+
+- ``guided``: SET_ATTITUDE_TARGET with body yaw rate + thrust (type_mask 0x03) in GUIDED,
+  which Rover turns into a turn rate and a speed of thrust × WP_SPEED. No release is needed:
+  ArduPilot stops by itself 3 s after the last target, and leaving GUIDED ends it at once.
+- ``rc_override``: RC_CHANNELS_OVERRIDE on the steering and throttle channels (RCMAP_ROLL,
+  RCMAP_THROTTLE, scaled by their RCn_MIN/TRIM/MAX), for vehicles run in MANUAL. ArduPilot
+  obeys it only from the system id in MAV_GCS_SYSID, so the companion must speak with that id;
+  it reads the parameter and refuses to engage on a mismatch. MANUAL is also the human's
+  mode, so engaging needs an explicit signal — an RC switch (``EngageChannel`` above
+  ``EngagePWM``) — and the helm releases every channel it drove (0 = back to the radio) the
+  moment it goes offline for any reason. Overrides are refreshed every tick, well within
+  RC_OVERRIDE_TIME (3 s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+ATTITUDE_RATE_AND_THRUST = 0x03
+RC_IGNORE = 0xFFFF
+"""RC_CHANNELS_OVERRIDE: leave this channel alone."""
+RC_RELEASE = 0
+"""RC_CHANNELS_OVERRIDE, channels 1–8: give this channel back to the radio at once."""
+RC_RELEASE_HIGH = 0xFFFE
+"""The same for channels 9–18, where 0 means "ignore"."""
+RELEASE_REPEATS = 3
+"""Release messages sent on going offline, so one lost packet cannot leave an override."""
+
+
+@dataclass
+class AutopilotView:
+    """What the bridge knows of the autopilot that a profile's decisions depend on."""
+
+    params: dict[str, float] = field(default_factory=dict)
+    rc: list[int] = field(default_factory=list)
+    """RC_CHANNELS as the autopilot sees them (radio, or override where one is active)."""
+
+
+def rudder_to_turn_rate(rudder: float, max_rudder: float, max_turn_rate: float) -> float:
+    """Degrees of rudder to a body turn rate (deg/s, positive clockwise), saturated."""
+    fraction = max(-1.0, min(1.0, rudder / max_rudder)) if max_rudder > 0 else 0.0
+    return fraction * max_turn_rate
+
+
+class Actuation:
+    """The base: a profile says why it may not drive, drives, and releases."""
+
+    name = "actuation"
+
+    def wanted_params(self) -> tuple[str, ...]:
+        """Autopilot parameters this profile needs before it may engage."""
+        return ()
+
+    def refusal(self, view: AutopilotView) -> str | None:
+        """Why the helm may not drive now (beyond link, arming and mode), or None."""
+        return None
+
+    def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
+              boot_ms: int) -> dict[str, float]:
+        """Send one tick's command (rudder in degrees, thrust in percent, both already
+        checked finite and in range); return what was sent, for the bus (AP_CMD_*)."""
+        raise NotImplementedError
+
+    def release(self, mav: mavlink.MAVLink) -> None:
+        """The helm has just gone offline: hand the actuators back."""
+
+
+@dataclass
+class Guided(Actuation):
+    target_system: int
+    target_component: int
+    max_rudder: float
+    max_turn_rate: float
+    name = "guided"
+
+    def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
+              boot_ms: int) -> dict[str, float]:
+        yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.max_rudder,
+                                                    self.max_turn_rate))
+        fraction = thrust / 100.0
+        mav.set_attitude_target_send(boot_ms, self.target_system, self.target_component,
+                                     ATTITUDE_RATE_AND_THRUST, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0,
+                                     yaw_rate, fraction)
+        return {"AP_CMD_YAW_RATE": yaw_rate, "AP_CMD_THRUST": fraction}
+
+
+GCS_SYSID_PARAMS = ("MAV_GCS_SYSID", "SYSID_MYGCS")
+"""ArduPilot 4.7+ names it MAV_GCS_SYSID; older firmware SYSID_MYGCS."""
+
+
+@dataclass
+class RcOverride(Actuation):
+    target_system: int
+    target_component: int
+    max_rudder: float
+    system_id: int
+    engage_channel: int
+    engage_pwm: int
+    name = "rc_override"
+    driven: set[int] = field(default_factory=set)
+
+    def wanted_params(self) -> tuple[str, ...]:
+        names = ["RCMAP_ROLL", "RCMAP_THROTTLE", *GCS_SYSID_PARAMS]
+        for ch in (1, 3):  # the default RCMAP; the mapped channels are asked for once known
+            names += [f"RC{ch}_MIN", f"RC{ch}_TRIM", f"RC{ch}_MAX"]
+        return tuple(names)
+
+    def channels(self, params: Mapping[str, float]) -> tuple[int, int] | None:
+        if "RCMAP_ROLL" not in params or "RCMAP_THROTTLE" not in params:
+            return None
+        return int(params["RCMAP_ROLL"]), int(params["RCMAP_THROTTLE"])
+
+    def missing(self, params: Mapping[str, float]) -> list[str]:
+        """Parameters still needed before the profile can compute PWM."""
+        need = ["RCMAP_ROLL", "RCMAP_THROTTLE"]
+        channels = self.channels(params)
+        if channels is not None:
+            need += [f"RC{ch}_{k}" for ch in channels for k in ("MIN", "TRIM", "MAX")]
+        missing = [n for n in need if n not in params]
+        if not any(n in params for n in GCS_SYSID_PARAMS):
+            missing.append(GCS_SYSID_PARAMS[0])
+        return missing
+
+    def refusal(self, view: AutopilotView) -> str | None:
+        missing = self.missing(view.params)
+        if missing:
+            return f"waiting for the autopilot's parameters {', '.join(missing)}"
+        gcs = next(int(view.params[n]) for n in GCS_SYSID_PARAMS if n in view.params)
+        if gcs != self.system_id:
+            return (f"MAV_GCS_SYSID is {gcs} but the companion speaks as system "
+                    f"{self.system_id}, so ArduPilot would ignore its RC override: set "
+                    f"SystemID = {gcs} in iMAVLink")
+        if len(view.rc) < self.engage_channel:
+            return f"no RC_CHANNELS from the autopilot yet (engage switch RC{self.engage_channel})"
+        pwm = view.rc[self.engage_channel - 1]
+        if pwm < self.engage_pwm:
+            return (f"engage switch RC{self.engage_channel} is low ({pwm} < "
+                    f"{self.engage_pwm})")
+        return None
+
+    def pwm(self, params: Mapping[str, float], channel: int, fraction: float) -> int:
+        """-1..1 to PWM about the channel's trim, as ArduPilot reads its radio."""
+        lo = params[f"RC{channel}_MIN"]
+        hi = params[f"RC{channel}_MAX"]
+        trim = params[f"RC{channel}_TRIM"]
+        fraction = max(-1.0, min(1.0, fraction))
+        value = trim + fraction * (hi - trim if fraction >= 0 else trim - lo)
+        return int(round(max(lo, min(hi, value))))
+
+    def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
+              boot_ms: int) -> dict[str, float]:
+        params = view.params
+        channels = self.channels(params)
+        assert channels is not None
+        steer_ch, throttle_ch = channels
+        values = [RC_IGNORE] * 18
+        steer = self.pwm(params, steer_ch, rudder / self.max_rudder)
+        throttle = self.pwm(params, throttle_ch, thrust / 100.0)
+        values[steer_ch - 1] = steer
+        values[throttle_ch - 1] = throttle
+        self.driven = {steer_ch, throttle_ch}
+        mav.rc_channels_override_send(self.target_system, self.target_component, *values)
+        return {"AP_CMD_RC_STEER": float(steer), "AP_CMD_RC_THROTTLE": float(throttle)}
+
+    def release(self, mav: mavlink.MAVLink) -> None:
+        if not self.driven:
+            return
+        values = [RC_IGNORE] * 18
+        for ch in self.driven:
+            values[ch - 1] = RC_RELEASE if ch <= 8 else RC_RELEASE_HIGH
+        for _ in range(RELEASE_REPEATS):
+            mav.rc_channels_override_send(self.target_system, self.target_component, *values)
+        self.driven = set()
