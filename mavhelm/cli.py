@@ -43,6 +43,43 @@ def _stop(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def _check(args: argparse.Namespace) -> int:
+    from mavhelm.companion.check import checklist, observe
+    from mavhelm.companion.companion import Plan
+    from mavhelm.companion.link import AutopilotLink, transport_for
+    from mavhelm.companion.mavlink_bridge import BridgeConfig
+    from mavhelm.core.clock import WallClock
+
+    config, origin, problem = BridgeConfig(), None, ""
+    if args.mission:
+        try:
+            plan = Plan.from_mission(args.mission, WallClock(), connect=args.connect)
+            config, origin = plan.link, plan.origin
+        except LocatedError as exc:
+            problem = str(exc)
+    if args.connect:
+        config.connect = args.connect
+    try:
+        transport_for(config.connect, config.baud)
+    except ValueError as exc:
+        print(f"mavhelm check: {exc}", file=sys.stderr)
+        return 2
+    print(f"mavhelm check: listening to {config.connect} for {args.listen:g} s ...", flush=True)
+    link = AutopilotLink(config.connect, config.baud, config.system_id, config.component_id,
+                         config.target_system, config.target_component)
+    try:
+        seen = observe(link, config, args.listen)
+    finally:
+        link.close()
+    lines = checklist(seen, config, origin, problem)
+    for line in lines:
+        print(line)
+    failed = sum(line.status == "FAIL" for line in lines)
+    print(f"mavhelm check: {failed} problem{'s' if failed != 1 else ''}" if failed
+          else "mavhelm check: ready")
+    return 1 if failed else 0
+
+
 def _sim(args: argparse.Namespace) -> int:
     from mavhelm.sitl import runner
 
@@ -82,6 +119,15 @@ def build_parser() -> argparse.ArgumentParser:
                      help="pace the helm on the wall clock (a real vehicle) or on the "
                           "autopilot's time_boot_ms (a SITL run with --speedup)")
     run.set_defaults(func=_run)
+
+    check = sub.add_parser("check", help="pre-flight checklist: connect, read the streams and "
+                           "parameters the companion needs, say what is wrong and how to fix it")
+    check.add_argument("mission", nargs="?", default=None,
+                       help="the mission to check against (origin, actuation, servos)")
+    check.add_argument("--connect", help="autopilot link (default: the mission's Connect)")
+    check.add_argument("--listen", type=float, default=8.0,
+                       help="seconds to listen for streams and parameters (default 8)")
+    check.set_defaults(func=_check)
 
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)

@@ -206,3 +206,20 @@ def test_configured_stream_rates_are_what_is_requested():
         bridge.close()
         os.close(master)
         os.close(slave)
+
+
+def test_a_vehicle_far_from_the_mission_origin_is_warned_about_once(serial_link):
+    ap, bridge, bus, clock = serial_link
+    lat, lon = ORIGIN.to_global(0.0, 152_842.0)  # the demo mission on mavhelm sim's default home
+
+    def fix():
+        ap.send(mavlink.MAVLink_gps_raw_int_message(
+            0, mavlink.GPS_FIX_TYPE_3D_FIX, int(lat * 1e7), int(lon * 1e7), 0, 80, 65535, 0,
+            0, 12))
+
+    fix()
+    got = tick(bridge, bus, clock)
+    assert got["MAVLINK_WARNING"] == ("the vehicle is 152.8 km from the mission's origin "
+                                      "(LatOrigin/LongOrigin): wrong mission, or a wrong origin?")
+    fix()
+    assert "MAVLINK_WARNING" not in tick(bridge, bus, clock), "said once"

@@ -7,6 +7,7 @@ import hashlib
 import math
 import socket
 import time
+from pathlib import Path
 
 import pytest
 
@@ -260,3 +261,28 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
         while "mavhelm sim: stopped" not in sim.output.text() and time.monotonic() < deadline:
             time.sleep(0.05)
         assert "mavhelm sim: stopped" in sim.output.text()
+
+
+def test_mavhelm_sim_starts_at_the_missions_origin():
+    from interop_helpers import SimProcess
+
+    mission = Path(__file__).resolve().parents[1] / "examples" / "demo.moos"
+    sim = SimProcess("--mission", str(mission))
+    try:
+        assert "at 56.412000,-5.476000 listening on" in sim.output.text()
+    finally:
+        sim.close()
+
+
+def test_a_busy_port_names_the_port_and_the_option(capsys):
+    holder = socket.socket()
+    holder.bind(("127.0.0.1", 0))
+    holder.listen(1)
+    port = holder.getsockname()[1]
+    try:
+        assert runner.run(_parse("--port", f"{port}")) == 1
+    finally:
+        holder.close()
+    err = capsys.readouterr().err
+    assert err.startswith(f"mavhelm sim: TCP port {port} on 127.0.0.1 is already in use")
+    assert f"--port {port + 10}" in err

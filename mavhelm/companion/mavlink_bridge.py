@@ -51,6 +51,9 @@ DEFAULT_STREAMS: dict[str, float] = {
 }
 
 
+FAR_FROM_ORIGIN_M = 5000.0
+"""A GPS fix farther than this from the mission's origin is warned about."""
+
 STREAM_GRACE_S = 5.0
 """How long after the link comes up every requested stream must have been heard once."""
 
@@ -196,6 +199,7 @@ class MavlinkBridge:
                                    config.target_component)
         self.view = AutopilotView()
         self._params_requested_at: float | None = None
+        self._warned_far = False
         self.input = AutopilotInput(self)
         self.output = AutopilotOutput(self)
         self.mode: str | None = None
@@ -277,6 +281,7 @@ class MavlinkBridge:
                 if abs(msg.lat) > 900_000_000 or abs(msg.lon) > 1_800_000_000:
                     raise ValueError(f"lat/lon {msg.lat}/{msg.lon} (1e-7 deg) is not on the earth")
                 x, y = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7)
+                self._check_distance(x, y)
                 post("GPS_X", x)
                 post("GPS_Y", y)
                 if msg.vel != _UNKNOWN_U16:
@@ -323,6 +328,16 @@ class MavlinkBridge:
             post("AP_COMMAND_ACK", f"command={msg.command},result={msg.result}")
         elif kind == "STATUSTEXT":
             post("AP_STATUSTEXT", msg.text)
+
+    def _check_distance(self, x: float, y: float) -> None:
+        """Say once if the vehicle is far from the mission's origin: the wrong mission file,
+        or an origin typed wrong, would otherwise steer for a point kilometres away."""
+        distance = math.hypot(x, y)
+        if distance > FAR_FROM_ORIGIN_M and not self._warned_far:
+            self._warned_far = True
+            self.input.notify("MAVLINK_WARNING", f"the vehicle is {distance / 1000:.1f} km from "
+                              "the mission's origin (LatOrigin/LongOrigin): wrong mission, or a "
+                              "wrong origin?")
 
     def _update_link(self, now: float) -> None:
         heard = self.last_heartbeat

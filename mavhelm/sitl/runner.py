@@ -17,6 +17,19 @@ from typing import Any
 from mavhelm.sitl.flat_earth import Origin
 
 TICK = 0.01  # wall seconds between simulator steps
+DEFAULT_HOME = (56.0, -3.0, 0.0)
+
+
+def _port_free(host: str, port: int) -> bool:
+    import socket
+
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+    return True
 
 
 class PacedClock:
@@ -94,8 +107,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
     parser.add_argument("--out", type=_out, action="append", default=[],
                         help="also send to udp:HOST:PORT (repeatable)")
-    parser.add_argument("--home", type=_home, default=(56.0, -3.0, 0.0),
-                        help="start position and heading: LAT,LON,HEADING")
+    parser.add_argument("--home", type=_home, default=None,
+                        help="start position and heading: LAT,LON,HEADING (default: the "
+                             "--mission's origin, else 56.0,-3.0)")
+    parser.add_argument("--mission", default=None,
+                        help="start at this mission's LatOrigin/LongOrigin (a mission's "
+                             "waypoints are metres from its origin)")
     parser.add_argument("--speedup", type=float, default=1.0,
                         help="run N times faster than real time (default 1)")
     parser.add_argument("--fast-start", action="store_true",
@@ -210,7 +227,21 @@ def run(args: argparse.Namespace) -> int:
     if beacons and not sensors:
         print("mavhelm sim: --beacons needs --sensors", file=sys.stderr)
         return 2
-    lat, lon, heading = args.home
+    if args.home is not None:
+        lat, lon, heading = args.home
+    elif getattr(args, "mission", None):
+        from mavhelm.core.errors import LocatedError
+        from mavhelm.core.geodesy import mission_origin
+        from mavhelm.core.mission import load_mission
+
+        try:
+            origin = mission_origin(load_mission(args.mission))
+        except LocatedError as exc:
+            print(f"mavhelm sim: {exc}", file=sys.stderr)
+            return 2
+        lat, lon, heading = origin.lat, origin.lon, 0.0
+    else:
+        lat, lon, heading = DEFAULT_HOME
     home = Origin(lat, lon)
     epoch = time.time()
     clock = PacedClock(args.speedup)
@@ -234,7 +265,14 @@ def run(args: argparse.Namespace) -> int:
                             scenario=scenario, params=params, seed=seed or 0, epoch=epoch,
                             serial_sensors=ports)
         except OSError as exc:
-            print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
+            busy = [p for p in args.port if p and not _port_free(args.host, p)]
+            if busy:
+                spare = ",".join(str(p + 10) for p in args.port)
+                print(f"mavhelm sim: TCP port {busy[0]} on {args.host} is already in use "
+                      f"(another SITL or mavhelm sim?): choose free ones with --port, e.g. "
+                      f"--port {spare}", file=sys.stderr)
+            else:
+                print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
             return 1
         where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
         outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
