@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import socket
 import threading
+import tracemalloc
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -164,19 +165,23 @@ def test_a_flood_is_bounded_and_the_newest_heartbeat_survives():
         attitude = ap.frame("attitude", time_boot_ms=1, roll=0.0, pitch=0.0, yaw=1.0,
                             rollspeed=0.0, pitchspeed=0.0, yawspeed=0.0)
         flood = (ap.heartbeat(custom_mode=0) + attitude * 2000 + ap.heartbeat(custom_mode=4)
-                 + attitude * 20000)
+                 + attitude * 150000)
         assert ap.conn is not None
         sender = threading.Thread(target=ap.conn.sendall, args=(flood,))
         sender.start()
         got = []
+        tracemalloc.start()
         while link.stats.bytes_read < len(flood):
             got += in_thread(lambda: link.poll(1.0))
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
         sender.join()
+        assert peak < 4 * 1024 * 1024, f"reading a 6 MB flood allocated {peak / 1e6:.1f} MB at peak"
         heartbeats = [m.custom_mode for m in got if m.get_type() == "HEARTBEAT"]
         assert heartbeats and heartbeats[-1] == 4, "the newest HEARTBEAT (HOLD) is kept"
         assert link.stats.bytes_dropped > len(flood) // 2
         parsed_attitudes = sum(m.get_type() == "ATTITUDE" for m in got)
-        assert parsed_attitudes < 22000 * 0.5, "most of the flood is dropped, not parsed"
+        assert parsed_attitudes < 152000 * 0.1, "most of the flood is dropped, not parsed"
     finally:
         ap.close()
         link.close()

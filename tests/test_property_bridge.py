@@ -82,18 +82,19 @@ class FakeTransport:
         self.written += data
         return len(data)
 
-    def read(self, limit: int) -> bytes:
+    def read_into(self, buffer: memoryview) -> int:
         if self.fail_next_read:
             self.fail_next_read = False
             self.incoming.clear()  # what was in flight on a reset connection is gone
             raise ConnectionResetError(104, "connection reset by peer")
         if not self.incoming:
-            return b""
+            return 0
         chunk = self.incoming.popleft()
-        if len(chunk) > limit:
-            self.incoming.appendleft(chunk[limit:])
-            chunk = chunk[:limit]
-        return chunk
+        if len(chunk) > len(buffer):
+            self.incoming.appendleft(chunk[len(buffer):])
+            chunk = chunk[:len(buffer)]
+        buffer[:len(chunk)] = chunk
+        return len(chunk)
 
     def close(self) -> None:
         self.closed = True
