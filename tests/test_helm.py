@@ -567,3 +567,42 @@ def test_a_non_finite_vote_becomes_zero_with_a_warning(monkeypatch: pytest.Monke
     assert one(out, "DESIRED_THRUST") == 0.0 and one(out, "DESIRED_RUDDER") == 0.0
     warnings = values(out, "HELM_WARNING")
     assert len(warnings) == 2 and all("task B voted" in str(w) for w in warnings)
+
+
+def _leg_and_clock(clock_setting: str | None) -> tuple[Spec, list[Block]]:
+    spec = Spec()
+    pairs = [("Name", "Leg"), ("Heading", "90"), ("Thrust", "50"), ("TimeOut", "60")]
+    if clock_setting is not None:
+        pairs.append(("TimeOutClock", clock_setting))
+    tasks = [spec.task("ConstantHeading", *pairs),
+             spec.task("OverallTimeOut", ("Name", "Clock"), ("TimeOut", "150"),
+                       ("FinishFlag", "EndMission")),
+             spec.task("EndMission", ("Name", "Stop"), ("StartFlag", "EndMission"))]
+    return spec, tasks
+
+
+def _ended_at(clock_setting: str | None) -> dict[str, float]:
+    """Drive 40 s online, 50 s in MANUAL (offline), then online until 200 s: when each task
+    ended (the run measured on real ArduPilot that motivated TimeOutClock)."""
+    spec, tasks = _leg_and_clock(clock_setting)
+    rig = Rig(tasks, spec)
+    ended: dict[str, float] = {}
+    for tenth in range(2000):
+        now = tenth / 10
+        online = 1.0 if not 40.0 <= now < 90.0 else 0.0
+        out = rig.tick(dt=0.1, HELM_ONLINE=online, NAV_HEADING=90.0)
+        for m in out:
+            if m.name == "TASK_ENDED":
+                ended.setdefault(str(m.value).split(":")[0], now)
+    return ended
+
+
+def test_a_task_timeout_counts_only_online_time_and_the_mission_clock_counts_all():
+    ended = _ended_at(None)  # the default: ONLINE for tasks, ALWAYS for OverallTimeOut
+    assert 110.0 < ended["Leg"] < 110.5, "60 s of driving: 40 before MANUAL, 20 after"
+    assert 150.0 < ended["Clock"] < 150.5, "the mission's limit counted the 50 s in MANUAL"
+
+
+def test_timeout_clock_always_counts_the_time_in_manual():
+    ended = _ended_at("ALWAYS")
+    assert 90.0 <= ended["Leg"] < 90.5, "timed out in MANUAL: ended at the first online tick"

@@ -58,6 +58,10 @@ BASE_PARAMS: tuple[Param, ...] = (
           doc="ON runs from the mission start; default ON unless the task has a StartFlag"),
     Param("LOGPID", Boolean(), False, attr="log_pid",
           doc="post the heading controller's terms as <NAME>_YAW_PID"),
+    Param("TimeOutClock", Choice(("ONLINE", "ALWAYS")), "ONLINE", attr="timeout_clock",
+          doc="ONLINE: TimeOut counts only time the helm is online, so a leg interrupted by "
+              "the operator in MANUAL still gets its full time after hand-back; ALWAYS: "
+              "wall time since it started"),
 )
 
 
@@ -151,6 +155,7 @@ class Task:
         self.initial_state: str | None = None
         self.priority = 0
         self.log_pid = False
+        self.timeout_clock = "ONLINE"
         label = block.get("Name") or self.keyword
         self.schema().apply(self, block, owner=f"{self.keyword} task {label}")
         if self.name is None:
@@ -164,6 +169,9 @@ class Task:
             )
         self.state = State.IDLE
         self.start_time: float | None = None
+        self.offline_time = 0.0
+        """Seconds the helm spent offline while this task was active (for TimeOutClock)."""
+        self._offline_since: float | None = None
         self.end_cause: str | None = None
         self.yaw_pid: ScalarPID = self.gains.yaw_pid()
         self._outbox: list[tuple[str, float | str]] = []
@@ -241,9 +249,24 @@ class Task:
         self.post("TASK_STARTED", self.name)
         self.initialise(now)
 
-    def resume(self) -> None:
-        """The helm comes back online: controller history from before the gap is meaningless."""
+    def pause(self, now: float) -> None:
+        """The helm goes offline: the operator has the vehicle."""
+        if self._offline_since is None:
+            self._offline_since = now
+
+    def resume(self, now: float | None = None) -> None:
+        """The helm comes back online: controller history from before the gap is meaningless,
+        and the gap is not counted against an ONLINE-clock TimeOut."""
         self.yaw_pid.reset()
+        if self._offline_since is not None and now is not None:
+            self.offline_time += now - self._offline_since
+        self._offline_since = None
+
+    def elapsed(self, now: float) -> float:
+        """Time this task has run, as its TimeOutClock counts it."""
+        assert self.start_time is not None
+        run = now - self.start_time
+        return run - self.offline_time if self.timeout_clock == "ONLINE" else run
 
     def starving(self, nav: NavState, now: float) -> list[str]:
         """Needed variables not heard for more than 10 s (counted from activation if never).
@@ -269,7 +292,7 @@ class Task:
         if not self.active:
             return None
         assert self.start_time is not None
-        if self.timeout is not None and now - self.start_time > self.timeout:
+        if self.timeout is not None and self.elapsed(now) > self.timeout:
             self.end(TIMEOUT, f"task {self.name} timed out after {self.timeout:g} s")
             return None
         silent = self.starving(nav, now)

@@ -111,7 +111,7 @@ class Helm(App):
             if self.online and self.mission_started:
                 for t in self.tasks:
                     if t.active:
-                        t.resume()
+                        t.resume(now)
             if not self.online:
                 self._set_rudder_owner("none")
             self._state_posted = self.online
@@ -121,6 +121,9 @@ class Helm(App):
                 if t.initial_on:
                     t.start(now)
         if not self.online:
+            for t in self.tasks:
+                if t.active:
+                    t.pause(now)
             self._flush()
             return
         self.last_winners = arbitrate(self._run_tasks(now))

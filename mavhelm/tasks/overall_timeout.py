@@ -23,6 +23,8 @@ class OverallTimeOut(Task):
               unit="s", doc="the whole mission's limit", attr="timeout"),
         Param("InitialState", Choice(("ON", "OFF")), "ON", attr="initial_state",
               doc="ON: the clock runs from the mission start"),
+        Param("TimeOutClock", Choice(("ONLINE", "ALWAYS")), "ALWAYS", attr="timeout_clock",
+              doc="ALWAYS: the mission's limit counts time in MANUAL too"),
     )
 
     def check(self, block: Block) -> None:
