@@ -27,6 +27,9 @@ def _run(args: argparse.Namespace) -> int:
     try:
         while True:
             companion.tick(clock.now())
+            if args.exit_at_end and companion.mission_over():
+                print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
+                break
             next_tick += companion.tick_period
             if next_tick < clock.now() - companion.tick_period:
                 next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
@@ -115,6 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--connect", help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
                      "serial device such as /dev/ttyAMA0 (default: the mission's Connect)")
     run.add_argument("--log-dir", default="runs", help="where the .alog goes (default runs/)")
+    run.add_argument("--exit-at-end", action="store_true",
+                     help="exit once EndMission is active and any HandBack is settled "
+                          "(default: keep running, holding the end values while online)")
     run.add_argument("--clock", choices=["wall", "autopilot"], default="wall",
                      help="pace the helm on the wall clock (a real vehicle) or on the "
                           "autopilot's time_boot_ms (a SITL run with --speedup)")

@@ -223,3 +223,29 @@ def test_a_vehicle_far_from_the_mission_origin_is_warned_about_once(serial_link)
                                       "(LatOrigin/LongOrigin): wrong mission, or a wrong origin?")
     fix()
     assert "MAVLINK_WARNING" not in tick(bridge, bus, clock), "said once"
+
+
+def test_a_refused_hand_back_is_retried_then_reported(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.heartbeat(15, armed=True)
+    tick(bridge, bus, clock)
+    assert bridge.online
+    bridge.send([bus.notify("HELM_HANDBACK", "HOLD", "pHelm")], clock.now())
+    asked = 0
+    errors = []
+    for _ in range(45):
+        for m in ap.read():
+            if m.get_type() == "COMMAND_LONG" and m.command == mavlink.MAV_CMD_DO_SET_MODE:
+                asked += 1
+                assert m.param2 == 4, "HOLD"
+                ap.send(mavlink.MAVLink_statustext_message(4, b"Flight mode change failed"))
+                ap.send(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_DO_SET_MODE,
+                                                            mavlink.MAV_RESULT_FAILED))
+        ap.heartbeat(15, armed=True)
+        got = tick(bridge, bus, clock)
+        bridge.send([], clock.now())
+        if "HELM_HANDBACK_ERROR" in got:
+            errors.append(got["HELM_HANDBACK_ERROR"])
+    assert asked == 3
+    assert errors == ["ArduPilot did not take the vehicle in HOLD (DO_SET_MODE refused, result "
+                      "4; it said: Flight mode change failed): the helm keeps the end values"]

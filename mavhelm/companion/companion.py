@@ -101,5 +101,10 @@ class Companion:
     def tick(self, now: float) -> None:
         self.community.tick(now)
 
+    def mission_over(self) -> bool:
+        """EndMission is active and any hand-back to the autopilot has been settled."""
+        handback = self.bridge.handback
+        return self.helm.mission_ended and (handback is None or handback.done)
+
     def close(self) -> None:
         self.community.close()

@@ -28,6 +28,7 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
     "TASK_STARTED": lambda m: f"task {m.string} started",
     "TASK_ENDED": lambda m: "task {} ended: {}".format(*m.string.partition(":")[::2]),
     "MISSION_ENDED": lambda m: f"MISSION ENDED ({m.string} holds the vehicle)",
+    "HELM_HANDBACK_DONE": lambda m: f"vehicle handed back to the autopilot in {m.string}",
     "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
 }
 """Variables shown as they are posted, and how."""
@@ -43,6 +44,7 @@ SEVERITY_ERROR, SEVERITY_WARNING = 3, 4
 GCS_SEVERITY: dict[str, int] = {
     "HELM_STATUS": SEVERITY_NOTICE,
     "MISSION_ENDED": SEVERITY_NOTICE,
+    "HELM_HANDBACK_DONE": SEVERITY_NOTICE,
     "TASK_STARTED": SEVERITY_INFO,
     "TASK_ENDED": SEVERITY_INFO,
 }

@@ -180,6 +180,45 @@ class BridgeConfig:
         return cfg
 
 
+@dataclass
+class HandBack:
+    """Giving the vehicle back to the autopilot at the end of the mission: DO_SET_MODE,
+    confirmed by the HEARTBEAT, tried three times a second apart."""
+
+    mode: str
+    tries: int = 0
+    next_try: float = -math.inf
+    refused: int | None = None
+    done: bool = False
+    TRIES = 3
+
+    def due(self, now: float) -> bool:
+        if self.tries >= self.TRIES or now < self.next_try:
+            return False
+        self.tries += 1
+        self.next_try = now + 1.0
+        return True
+
+    def confirm(self, mode: str | None) -> bool:
+        """True the first time the HEARTBEAT shows the asked-for mode."""
+        if self.done or mode != self.mode:
+            return False
+        self.done = True
+        return True
+
+    def acknowledged(self, result: int) -> None:
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            self.refused = result
+
+    def failed(self, now: float) -> bool:
+        return self.tries >= self.TRIES and now >= self.next_try
+
+    def why(self) -> str:
+        if self.refused is not None:
+            return f"DO_SET_MODE refused, result {self.refused}"
+        return f"no HEARTBEAT in {self.mode} after {self.TRIES} requests"
+
+
 class MavlinkBridge:
     """One MAVLink connection to the autopilot; ``input`` and ``output`` are its two apps."""
 
@@ -200,6 +239,8 @@ class MavlinkBridge:
         self.view = AutopilotView()
         self._params_requested_at: float | None = None
         self._warned_far = False
+        self.handback: HandBack | None = None
+        self._last_statustext = ""
         self.input = AutopilotInput(self)
         self.output = AutopilotOutput(self)
         self.mode: str | None = None
@@ -273,6 +314,8 @@ class MavlinkBridge:
             self.last_heartbeat = now
             self.mode = ROVER_MODES.get(msg.custom_mode, f"MODE{msg.custom_mode}")
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            if self.handback is not None and self.handback.confirm(self.mode):
+                post("HELM_HANDBACK_DONE", self.mode)
             post("AP_MODE", self.mode)
             post("AP_ARMED", 1.0 if self.armed else 0.0)
         elif kind == "GPS_RAW_INT":
@@ -321,12 +364,15 @@ class MavlinkBridge:
             if (msg.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
                     and msg.result == mavlink.MAV_RESULT_ACCEPTED):
                 self._streams_acked = True
+            if msg.command == mavlink.MAV_CMD_DO_SET_MODE and self.handback is not None:
+                self.handback.acknowledged(msg.result)
             if msg.command == mavlink.MAV_CMD_DO_SET_SERVO:
                 report = self.servos.acknowledged(msg.result)
                 if report is not None:
                     post("MAVLINK_WARNING", report)
             post("AP_COMMAND_ACK", f"command={msg.command},result={msg.result}")
         elif kind == "STATUSTEXT":
+            self._last_statustext = msg.text
             post("AP_STATUSTEXT", msg.text)
 
     def _check_distance(self, x: float, y: float) -> None:
@@ -438,6 +484,11 @@ class MavlinkBridge:
             self.link.mav.heartbeat_send(
                 mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                 mavlink.MAV_STATE_ACTIVE)
+        for m in mail:
+            if m.name == "HELM_HANDBACK":
+                self._request_handback(m.string, now)
+        if self.handback is not None:
+            self._drive_handback(now)
         if not self.online:
             return
         desired = {m.name: m.value for m in mail if m.is_double}
@@ -453,6 +504,33 @@ class MavlinkBridge:
         sent = self.actuation.drive(self.link.mav, self.view, rudder, thrust, boot_ms)
         for name, value in sent.items():
             self.output.notify(name, value)
+
+    def _request_handback(self, mode: str, now: float) -> None:
+        """EndMission asks to give the vehicle back to the autopilot in ``mode``; only done if
+        the helm has the vehicle, never over an operator who has taken it back."""
+        if not self.online:
+            self.output.notify("HELM_HANDBACK_ERROR", f"mission ended while the helm was "
+                               f"offline: the operator's mode {self.mode} is left alone")
+            return
+        self.handback = HandBack(mode)
+
+    def _drive_handback(self, now: float) -> None:
+        """Ask (again) for the mode until the HEARTBEAT shows it or three tries have failed."""
+        hb = self.handback
+        assert hb is not None
+        if hb.done:
+            return
+        if hb.failed(now):
+            hb.done = True
+            said = f"; it said: {self._last_statustext}" if self._last_statustext else ""
+            self.output.notify("HELM_HANDBACK_ERROR", f"ArduPilot did not take the vehicle in "
+                               f"{hb.mode} ({hb.why()}{said}): the helm keeps the end values")
+            return
+        if hb.due(now):
+            self.link.mav.command_long_send(
+                self.config.target_system, self.config.target_component,
+                mavlink.MAV_CMD_DO_SET_MODE, 0, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                ROVER_MODE_NUMBERS[hb.mode], 0, 0, 0, 0, 0)
 
     def _guard(self, name: str, value: float | str, limit: float) -> float:
         """The last line of defence: a demand that is not a finite number within ±limit is
@@ -492,7 +570,7 @@ class AutopilotOutput(App):
         self._mail: list[Message] = []
 
     def subscriptions(self) -> set[str]:
-        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR",
+        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR", "HELM_HANDBACK",
                 *self.bridge.servos.variables()}
 
     def on_mail(self, mail: list[Message], now: float) -> None:
