@@ -6,6 +6,7 @@ tick is acted on, and actuation stopped, in that same tick.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,9 +15,11 @@ from mavhelm.companion.alog import AlogLogger
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
-from mavhelm.core.bus import Bus
+from mavhelm.core.app import App
+from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
 from mavhelm.core.community import Community
+from mavhelm.core.errors import LocatedError
 from mavhelm.core.geodesy import Origin, mission_origin
 from mavhelm.core.mission import Mission, MissionError, load_mission
 from mavhelm.nav.navigator import Navigator
@@ -33,6 +36,34 @@ def check_processes(mission: Mission) -> None:
     for name, block in mission.processes.items():
         if name.lower() not in known:
             raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)})")
+
+
+def _entries(mission: Mission, process: str) -> list[tuple[str, str]]:
+    block = mission.process(process)
+    return [] if block is None else [(e.key.lower(), e.value) for e in block.entries]
+
+
+class HelmReloader(App):
+    """Hears RESTART_HELM (from any app, or a ground station's MAV_CMD_USER_1 to the
+    companion) and rebuilds the helm at the start of the next tick."""
+
+    name = "pHelmReload"
+
+    def __init__(self, bus: Bus, reload: Callable[[float], None]) -> None:
+        super().__init__(bus)
+        self._reload = reload
+        self._asked = False
+
+    def subscriptions(self) -> set[str]:
+        return {"RESTART_HELM"}
+
+    def on_mail(self, mail: list[Message], now: float) -> None:
+        self._asked = self._asked or any(m.name == "RESTART_HELM" for m in mail)
+
+    def iterate(self, now: float) -> None:
+        if self._asked:
+            self._asked = False
+            self._reload(now)
 
 
 @dataclass
@@ -79,6 +110,7 @@ class Companion:
     helm: Helm
     community: Community
     tick_period: float
+    plan: Plan
 
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
@@ -91,15 +123,48 @@ class Companion:
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
         bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
                                time_source=getattr(clock, "observe", None))
-        apps = [bridge.input, navigator, helm, bridge.output]
+        apps: list[App] = [bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
         apps.append(StatusConsole(bus, echo, statustext=bridge.send_statustext))
-        return cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
-                   1.0 / helm.app_tick)
+        companion = cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
+                        1.0 / helm.app_tick, plan)
+        companion.community.apps.insert(0, HelmReloader(bus, companion.reload))
+        return companion
 
     def tick(self, now: float) -> None:
         self.community.tick(now)
+
+    def reload(self, now: float) -> None:
+        """RESTART_HELM (spec 1): re-read the mission file and its TaskFile and rebuild the
+        helm. The new mission is read and checked whole first; on any error the running
+        mission carries on untouched and the error goes to the operator."""
+        try:
+            plan = Plan.from_mission(self.mission.path, self.bus.clock)
+        except LocatedError as exc:
+            self.bus.notify("HELM_RELOAD_ERROR", f"reload refused, the running mission "
+                            f"continues: {exc}", "pHelm")
+            return
+        helm = plan.helm
+        helm.bus = self.bus
+        helm.online = self.helm.online
+        helm.nav = self.helm.nav
+        apps = self.community.apps
+        apps[apps.index(self.helm)] = helm
+        link = dataclasses.replace(plan.link, connect=self.plan.link.connect)  # --connect kept
+        kept = [what for what, same in (("iMAVLink", link == self.plan.link),
+                                        ("origin", plan.origin == self.plan.origin),
+                                        ("pNav", _entries(plan.mission, "pNav")
+                                         == _entries(self.mission, "pNav")))
+                if not same]
+        if kept:
+            self.bus.notify("HELM_WARNING", f"reload: {', '.join(kept)} changes need a restart "
+                            "of mavhelm run; the running link and navigator are kept", "pHelm")
+        self.helm, self.mission = helm, plan.mission
+        self.plan = Plan(plan.mission, self.bus, self.navigator, helm, self.plan.link,
+                         self.plan.origin)
+        self.bus.notify("HELM_RELOADED", f"{plan.mission.path}: {len(helm.tasks)} tasks",
+                        "pHelm")
 
     def mission_over(self) -> bool:
         """EndMission is active and any hand-back to the autopilot has been settled."""

@@ -29,6 +29,8 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
     "TASK_ENDED": lambda m: "task {} ended: {}".format(*m.string.partition(":")[::2]),
     "MISSION_ENDED": lambda m: f"MISSION ENDED ({m.string} holds the vehicle)",
     "HELM_HANDBACK_DONE": lambda m: f"vehicle handed back to the autopilot in {m.string}",
+    "HELM_RELOADED": lambda m: f"helm reloaded: {m.string}",
+    "REMOTE_FLAG": lambda m: f"flag {m.string} posted by the ground station",
     "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
 }
 """Variables shown as they are posted, and how."""
@@ -45,6 +47,8 @@ GCS_SEVERITY: dict[str, int] = {
     "HELM_STATUS": SEVERITY_NOTICE,
     "MISSION_ENDED": SEVERITY_NOTICE,
     "HELM_HANDBACK_DONE": SEVERITY_NOTICE,
+    "HELM_RELOADED": SEVERITY_NOTICE,
+    "REMOTE_FLAG": SEVERITY_INFO,
     "TASK_STARTED": SEVERITY_INFO,
     "TASK_ENDED": SEVERITY_INFO,
 }

@@ -34,7 +34,7 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import Block, Entry
-from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text
+from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text, Word
 
 ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
 ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
@@ -50,6 +50,11 @@ DEFAULT_STREAMS: dict[str, float] = {
     "SYS_STATUS": 1.0,
 }
 
+
+CMD_RESTART_HELM = mavlink.MAV_CMD_USER_1
+"""COMMAND_LONG to the companion: re-read the mission file (spec RESTART_HELM)."""
+CMD_REMOTE_FLAG = mavlink.MAV_CMD_USER_2
+"""COMMAND_LONG to the companion: post the RemoteFlag numbered param1 (1 = the first)."""
 
 FAR_FROM_ORIGIN_M = 5000.0
 """A GPS fix farther than this from the mission's origin is warned about."""
@@ -123,6 +128,9 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("EngagePWM", Number(900, 2200, integer=True), 1800, "µs",
           "rc_override: the helm may drive while the engage channel is at or above this",
           attr="engage_pwm"),
+    Param("RemoteFlag", Word(), [], repeat=True, attr="remote_flags",
+          doc="a flag a ground station may post: COMMAND_LONG MAV_CMD_USER_2 to the companion "
+              "with param1 = its number (1 = the first RemoteFlag line)"),
     Param("Servo", ServoSpec(), [], repeat=True, attr="servos",
           doc="a named auxiliary actuator on a servo output: DESIRED_<NAME> in percent "
               "(-100..100) becomes DO_SET_SERVO with PWM min..max"),
@@ -151,6 +159,7 @@ class BridgeConfig:
     engage_channel: int | None = None
     engage_pwm: int = 1800
     servos: list[Servo] = field(default_factory=list)
+    remote_flags: list[str] = field(default_factory=list)
     max_turn_rate: float = 45.0
     max_rudder: float = 20.0
     link_timeout: float = 3.0
@@ -295,11 +304,41 @@ class MavlinkBridge:
         self.view = AutopilotView()
         self._params_requested_at = None
 
+    def _for_us(self, msg: mavlink.MAVLink_message) -> bool:
+        return (msg.target_system == self.config.system_id
+                and msg.target_component == self.config.component_id)
+
+    def _command(self, msg: mavlink.MAVLink_message) -> None:
+        """A ground station's command to the companion (ArduPilot routes COMMAND_LONG for our
+        system and component to our link): USER_1 restarts the helm, USER_2 posts a remote
+        flag. Answered with COMMAND_ACK like any MAVLink command."""
+        result = mavlink.MAV_RESULT_UNSUPPORTED
+        if msg.command == CMD_RESTART_HELM:
+            self.input.notify("RESTART_HELM", f"MAVLink from {msg.get_srcSystem()}:"
+                              f"{msg.get_srcComponent()}")
+            result = mavlink.MAV_RESULT_ACCEPTED
+        elif msg.command == CMD_REMOTE_FLAG:
+            index = int(msg.param1) if math.isfinite(msg.param1) else 0
+            if 1 <= index <= len(self.config.remote_flags):
+                flag = self.config.remote_flags[index - 1]
+                self.input.notify(flag, f"GCS {msg.get_srcSystem()}:{msg.get_srcComponent()}")
+                self.input.notify("REMOTE_FLAG", flag)
+                result = mavlink.MAV_RESULT_ACCEPTED
+            else:
+                result = mavlink.MAV_RESULT_DENIED
+                self.input.notify("MAVLINK_WARNING", f"remote flag {msg.param1:g} refused: "
+                                  f"{len(self.config.remote_flags)} RemoteFlag lines in iMAVLink")
+        self.link.mav.command_ack_send(msg.command, result, 0, 0, msg.get_srcSystem(),
+                                       msg.get_srcComponent())
+
     def _from_autopilot(self, msg: mavlink.MAVLink_message) -> bool:
         return (msg.get_srcSystem() == self.config.target_system
                 and msg.get_srcComponent() == self.config.target_component)
 
     def _handle(self, msg: mavlink.MAVLink_message, now: float) -> None:
+        if msg.get_type() == "COMMAND_LONG" and self._for_us(msg):
+            self._command(msg)
+            return
         if not self._from_autopilot(msg):
             return
         post = self.input.notify

@@ -53,9 +53,13 @@ class GroundStation:
         return messages
 
     def _handle(self, msg, now: float) -> None:
-        if msg.get_srcSystem() != self.target_system or msg.get_srcComponent() != 1:
+        """The autopilot's state from its own messages (component 1); acknowledgements and
+        texts from any component of the vehicle (the companion is 191), as a GCS shows them."""
+        if msg.get_srcSystem() != self.target_system:
             return
         kind = msg.get_type()
+        if msg.get_srcComponent() != 1 and kind not in ("COMMAND_ACK", "STATUSTEXT"):
+            return
         if kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
             self.heartbeats += 1
             self.mode = mavutil.mode_mapping_rover.get(msg.custom_mode, str(msg.custom_mode))

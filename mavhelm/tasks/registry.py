@@ -7,19 +7,37 @@ from mavhelm.tasks.actuate import SetActuator
 from mavhelm.tasks.base import Task
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.heading import ConstantHeading
+from mavhelm.tasks.holding import HoldingPattern
+from mavhelm.tasks.limit_altitude import LimitAltitude
+from mavhelm.tasks.limit_box import LimitBox
+from mavhelm.tasks.orbit import Orbit
 from mavhelm.tasks.overall_timeout import OverallTimeOut
 from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.steer_then_drive import SteerThenDriveXYPattern
+from mavhelm.tasks.survey import Survey
 from mavhelm.tasks.timer import Timer
+from mavhelm.tasks.trackline import TrackLine
+from mavhelm.tasks.variable_heading import VariableHeading
 from mavhelm.tasks.waypoint import GoToWayPoint
+from mavhelm.tasks.xypattern import XYPattern
 
 TASK_TYPES: dict[str, type[Task]] = {
     "gotowaypoint": GoToWayPoint,
+    "trackline": TrackLine,
+    "xypattern": XYPattern,
+    "orbit": Orbit,
+    "survey": Survey,
     "constantheading": ConstantHeading,
     "timer": Timer,
     "timeout": Timer,
     "overalltimeout": OverallTimeOut,
     "endmission": EndMission,
     "setactuator": SetActuator,
+    "limitbox": LimitBox,
+    "limitaltitude": LimitAltitude,
+    "holdingpattern": HoldingPattern,
+    "steerthendrivexypattern": SteerThenDriveXYPattern,
+    "variableheading": VariableHeading,
 }
 
 
