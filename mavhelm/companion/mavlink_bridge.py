@@ -278,6 +278,7 @@ class MavlinkBridge:
         if self._boot_time is None:
             self._boot_time = now
         messages = self.link.poll(now)
+        clock = self.bus.clock
         for event in self.link.take_events():
             self.input.notify("MAVLINK_LINK", event)
         if self.link.generation != self._generation:
@@ -287,12 +288,16 @@ class MavlinkBridge:
                 self.bad_packets += 1
                 continue
             self.packets += 1
+            # An autopilot clock moves as its stamps are read: a message is heard at the
+            # clock's time now, not at the start of the tick (else a live link would look
+            # seconds silent while the clock learns how fast the autopilot runs).
+            now = max(now, clock.now())
             try:
                 self._handle(msg, now)
             except (ValueError, TypeError, AttributeError, OverflowError) as exc:
                 self.bad_packets += 1
                 self.bus.notify("MAVLINK_ERROR", f"{msg.get_type()}: {exc}", self.input.name)
-        self._update_link(now)
+        self._update_link(max(now, clock.now()))
 
     def _forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts. No actuation until a
@@ -426,7 +431,8 @@ class MavlinkBridge:
 
     def _update_link(self, now: float) -> None:
         heard = self.last_heartbeat
-        up = heard is not None and now - heard <= self.config.link_timeout
+        up = (self.link.connected and heard is not None
+              and now - heard <= self.config.link_timeout)
         if up != self.link_up:
             self.link_up = up
             self.input.notify("AP_LINK", 1.0 if up else 0.0)
@@ -438,8 +444,9 @@ class MavlinkBridge:
             else:
                 self._streams_acked = False
                 if heard is not None:
-                    self.input.notify("MAVLINK_WARNING", "autopilot link lost: no HEARTBEAT "
-                                      f"for {self.config.link_timeout:g} s")
+                    why = (f"no HEARTBEAT for {self.config.link_timeout:g} s"
+                           if self.link.connected else "the connection dropped")
+                    self.input.notify("MAVLINK_WARNING", f"autopilot link lost: {why}")
         elif up and not self._streams_acked and self._streams_requested_at is not None \
                 and now - self._streams_requested_at >= 2.0:
             self._request_streams(now)

@@ -10,11 +10,13 @@ taper are the original MOOS task's ``InnerYawLimit``/``OuterYawLimit``, defaults
 its ``ThrustDamping`` filter is not reproduced). The rudder vote always comes from the heading
 controller, so a positive rudder still turns clockwise.
 
-The pattern is the ``Location`` lines in order, run ``Repeat`` times (Repeat = 1: each point
-once); a waypoint counts as reached closer than ``Radius``. The task completes on reaching the
-last point of the last pass (the original never completed and ended on its TimeOut; the
-spec's XYPattern "number of repetitions" reads more naturally this way). It posts
-``<NAME>_WAYPOINT`` ("index/count pass p/Repeat") on each new waypoint and ``<NAME>_PHASE``
+The pattern reads as XYPattern's: the ``Location`` lines in order, flown 1 + ``Repeat`` times
+(``Repeat`` counts the passes after the first; ``FOREVER`` patrols until the TimeOut), a
+waypoint reached closer than ``Radius``; successive Locations closer than ``Radius`` are
+refused. Unlike XYPattern it steers straight at each waypoint (no track line): the pivot is
+what keeps it on the line. The task completes on reaching the last point of the last pass (the
+original never completed and ended on its TimeOut). It posts ``<NAME>_WAYPOINT`` (the index of
+the waypoint it now heads for, 0 = the first Location line, as XYPattern) and ``<NAME>_PHASE``
 (TURN or DRIVE) on each change. Needs NAV_X, NAV_Y and NAV_HEADING.
 """
 
@@ -27,6 +29,7 @@ from mavhelm.core.mission import Block
 from mavhelm.core.params import Number, Param, Point
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.waypoint import RADIUS
+from mavhelm.tasks.xypattern import Passes
 
 TURN = "TURN"
 DRIVE = "DRIVE"
@@ -34,15 +37,15 @@ DRIVE = "DRIVE"
 
 class SteerThenDriveXYPattern(Task):
     keyword = "SteerThenDriveXYPattern"
-    summary = ("an XY pattern that turns on the spot (THRUST 0) at each waypoint until the "
-               "heading error is below HeadingTolerance, then drives; completes after the "
-               "last pass")
+    summary = ("an XY pattern (1 + Repeat passes) that turns on the spot (THRUST 0) at each "
+               "waypoint until the heading error is below HeadingTolerance, then drives; "
+               "completes after the last pass; posts <NAME>_WAYPOINT and <NAME>_PHASE")
     params = (
-        Param("Location", Point(), unit="m", repeat=True, attr="locations",
-              doc="a waypoint, x east and y north of the origin; one line each, in order"),
+        Param("Location", Point(), [], "m", "a waypoint x,y; one line each, in order (at "
+              "least one)", repeat=True, attr="locations"),
         Param("Radius", RADIUS, 5.0, "m", "a waypoint is reached closer than this"),
-        Param("Repeat", Number(1, 1000, integer=True), 1,
-              doc="how many times to run the whole pattern"),
+        Param("Repeat", Passes(), 0, "passes", "passes after the first; FOREVER patrols until "
+              "the task's TimeOut"),
         Param("Thrust", Number(0.0, 100.0, lo_open=True), unit="%",
               doc="thrust while driving with the heading error within HeadingTolerance"),
         Param("HeadingTolerance", Number(0.0, 90.0, lo_open=True), 10.0, "deg",
@@ -54,16 +57,35 @@ class SteerThenDriveXYPattern(Task):
     )
     locations: list[tuple[float, float, float | None]]
     radius: float
-    repeat: int
+    repeat: int | None
     thrust: float
     heading_tolerance: float
     outer_yaw_limit: float
 
     def check(self, block: Block) -> None:
+        entries = block.all("Location")
+        if not entries:
+            raise block.error(f"{self.keyword} task {self.name} needs at least one Location "
+                              "(x,y, one line each)")
+        points = self.locations
+        if len(points) == 1 and self.repeat != 0:
+            raise (block.entry("Repeat") or block).error(
+                f"Repeat needs at least two Locations: task {self.name} has one, so a repeat "
+                "pass would not move")
+        pairs = [(i, i - 1) for i in range(1, len(points))]
+        if self.repeat != 0 and len(points) > 1:
+            pairs.append((0, len(points) - 1))
+        for i, j in pairs:
+            gap = math.hypot(points[i][0] - points[j][0], points[i][1] - points[j][1])
+            if gap < self.radius:
+                raise entries[i].error(
+                    f"Location {entries[i].value.strip()} is {gap:.3g} m from the one before it "
+                    f"(line {entries[j].line}), within Radius {self.radius:g} m: it would count "
+                    "as reached at once")
         if not self.outer_yaw_limit > self.heading_tolerance:
-            entries = [e for e in (block.entry("OuterYawLimit"), block.entry("HeadingTolerance"))
-                       if e is not None]
-            where = max(entries, key=lambda e: e.line)
+            given = [e for e in (block.entry("OuterYawLimit"), block.entry("HeadingTolerance"))
+                     if e is not None]
+            where = max(given, key=lambda e: e.line)
             raise where.error(f"OuterYawLimit = {self.outer_yaw_limit:g} must exceed "
                               f"HeadingTolerance = {self.heading_tolerance:g}")
 
@@ -71,14 +93,13 @@ class SteerThenDriveXYPattern(Task):
         return {"NAV_X", "NAV_Y", HEADING}
 
     def initialise(self, now: float) -> None:
-        self.index = 0
-        self.pass_number = 1
+        self.leg = 0
+        """Waypoints reached so far: the goal is Location number leg % count."""
         self.phase: str | None = None
         self._announce()
 
     def _announce(self) -> None:
-        self.post(f"{self.name}_WAYPOINT", f"{self.index + 1}/{len(self.locations)} "
-                                           f"pass {self.pass_number}/{self.repeat}")
+        self.post(f"{self.name}_WAYPOINT", float(self.leg % len(self.locations)))
 
     def _set_phase(self, phase: str) -> None:
         if phase != self.phase:
@@ -87,17 +108,15 @@ class SteerThenDriveXYPattern(Task):
 
     @property
     def goal(self) -> tuple[float, float]:
-        x, y, _ = self.locations[self.index]
+        x, y, _ = self.locations[self.leg % len(self.locations)]
         return x, y
 
     def _advance(self) -> bool:
         """Move to the next waypoint; False when the last one of the last pass is done."""
-        if self.index == len(self.locations) - 1 and self.pass_number == self.repeat:
+        n = len(self.locations)
+        if self.repeat is not None and self.leg + 1 >= n * (1 + self.repeat):
             return False
-        self.index += 1
-        if self.index == len(self.locations):
-            self.index = 0
-            self.pass_number += 1
+        self.leg += 1
         self.yaw_pid.reset()  # a new bearing is a step, not a rate of change
         self._set_phase(TURN)
         self._announce()
@@ -105,7 +124,7 @@ class SteerThenDriveXYPattern(Task):
 
     def update(self, nav: NavState, now: float) -> Votes | None:
         assert nav.x is not None and nav.y is not None and nav.heading is not None
-        while math.hypot(self.goal[0] - nav.x, self.goal[1] - nav.y) < self.radius:
+        if math.hypot(self.goal[0] - nav.x, self.goal[1] - nav.y) < self.radius:
             if not self._advance():
                 self.complete()
                 return None
