@@ -12,15 +12,27 @@ import math
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.mission import Block, Mission, MissionError
-from mavhelm.core.names import HELM_ONLINE, MAIN_ACTUATORS, NAV_YAW, desired, source_variable
+from mavhelm.core.names import (
+    HELM_ONLINE,
+    MAIN_ACTUATORS,
+    NAV_HEADING,
+    NAV_X,
+    NAV_Y,
+    NAV_YAW,
+    desired,
+    source_variable,
+)
 from mavhelm.core.params import Number, Param, Schema, Text
+from mavhelm.core.thirdparty import REPLY_VARIABLE, REQUEST_VARIABLE
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.end_mission import EndMission
 from mavhelm.tasks.overall_timeout import OverallTimeOut
 from mavhelm.tasks.pid import GAIN_PARAMS, HelmGains
 from mavhelm.tasks.registry import build_task
+from mavhelm.tasks.third_party import AllowSpec, ThirdParty
 
 ONLINE_VAR = HELM_ONLINE
+ALWAYS_HEARD = (NAV_X, NAV_Y, NAV_HEADING, NAV_YAW)
 
 HELM_SCHEMA = Schema("pHelm", (
     Param("AppTick", Number(1.0, 50.0), 10.0, "Hz",
@@ -29,6 +41,8 @@ HELM_SCHEMA = Schema("pHelm", (
     Param("TaskFile", Text(), None, doc="a .hoof file of Task blocks, relative to the mission",
           attr="task_file"),
     *GAIN_PARAMS,
+    Param("Allow", AllowSpec(), [], repeat=True, attr="allow",
+          doc="grant a third party (spec 1.3) tasks of these types; all else is denied"),
 ))
 """The pHelm block's own settings (its Task blocks are read by the task types' schemas)."""
 
@@ -44,6 +58,8 @@ class Helm(App):
         settings = HELM_SCHEMA.read(block)
         self.gains = HelmGains.from_values(settings)
         self.app_tick: float = settings["app_tick"]
+        self.third_party = ThirdParty(settings["allow"], self.gains)
+        self._requests: list[str] = []
         self.tasks: list[Task] = []
         seen: dict[str, Block] = {}
         for tb in task_blocks:
@@ -88,7 +104,10 @@ class Helm(App):
         raise KeyError(name)
 
     def subscriptions(self) -> set[str]:
-        subs = {ONLINE_VAR}
+        """What the tasks need, and the vehicle's pose always: a task started by a guest or a
+        reload then finds navigation already current, not one tick late."""
+        subs = {ONLINE_VAR, REQUEST_VARIABLE, *ALWAYS_HEARD}
+        subs.update(source_variable(name) for name in ALWAYS_HEARD)
         for t in self.tasks:
             subs.update(t.start_flags)
             subs.update(t.needs())
@@ -101,6 +120,8 @@ class Helm(App):
         for msg in mail:
             if msg.name == ONLINE_VAR:
                 self.online = msg.is_double and msg.double == 1.0
+            if msg.name == REQUEST_VARIABLE:
+                self._requests.append(msg.string)
             self.nav.update(msg)
             for t in self.tasks:
                 t.offer(msg, now)
@@ -120,6 +141,7 @@ class Helm(App):
             for t in self.tasks:
                 if t.initial_on:
                     t.start(now)
+        self._third_party_requests(now)
         if not self.online:
             for t in self.tasks:
                 if t.active:
@@ -128,6 +150,22 @@ class Helm(App):
             return
         self.last_winners = arbitrate(self._run_tasks(now))
         self._post_desired()
+
+    def _third_party_requests(self, now: float) -> None:
+        """Answer the guests' requests (spec 1.3): start what is granted, close what is
+        closed, tell each requester why when denied."""
+        requests, self._requests = self._requests, []
+        for text in requests:
+            names = {t.name for t in self.tasks}
+            closed = ("the mission has ended" if self.mission_ended else None if self.online
+                      else "the helm is offline: the operator has the vehicle")
+            reply, task, closing = self.third_party.handle(text, closed, now, names)
+            self.notify(REPLY_VARIABLE, str(reply))
+            if task is not None:
+                self.tasks.append(task)
+                task.start(now)
+            if closing is not None:
+                closing.end("closed", f"closed by {reply.who}")
 
     def _locked(self) -> list[Task]:
         return [t for t in self.tasks if isinstance(t, EndMission) and t.active]
