@@ -83,6 +83,47 @@ def _check(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _request(args: argparse.Namespace) -> int:
+    from mavhelm.companion.guest import GUEST_COMPONENT, send_request
+    from mavhelm.companion.link import AutopilotLink, transport_for
+    from mavhelm.core.thirdparty import RequestError, ThirdPartyRequest
+
+    try:
+        request = ThirdPartyRequest(args.job, args.client)
+        if args.close:
+            text = request.close()
+        else:
+            if not args.task:
+                raise RequestError("give a task type (and Key=Value properties) or --close")
+            for item in args.properties:
+                key, eq, value = item.partition("=")
+                if not eq:
+                    raise RequestError(f"expected Key=Value, got {item!r}")
+                request.add_property(key, value)
+            text = request.execute_task(args.task)
+        target = tuple(int(v) for v in args.target.split(":"))
+        source = tuple(int(v) for v in args.source.split(":"))
+        if len(target) != 2 or len(source) != 2:
+            raise ValueError("expected SYSTEM:COMPONENT")
+        transport_for(args.connect, 57600)
+    except (RequestError, ValueError) as exc:
+        print(f"mavhelm request: {exc}", file=sys.stderr)
+        return 2
+    link = AutopilotLink(args.connect, system_id=source[0], component_id=source[1] or
+                         GUEST_COMPONENT, target_system=target[0], target_component=target[1])
+    print(f"mavhelm request: {text}", flush=True)
+    try:
+        reply = send_request(link, text, (target[0], target[1]), args.wait)
+    finally:
+        link.close()
+    if reply is None:
+        print(f"mavhelm request: no answer from {args.target} in {args.wait:g} s",
+              file=sys.stderr)
+        return 1
+    print(f"mavhelm request: {reply}")
+    return 0 if ":DENIED:" not in reply else 1
+
+
 def _sim(args: argparse.Namespace) -> int:
     from mavhelm.sitl import runner
 
@@ -134,6 +175,21 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--listen", type=float, default=8.0,
                        help="seconds to listen for streams and parameters (default 8)")
     check.set_defaults(func=_check)
+
+    request = sub.add_parser("request", help="a guest's third-party request to the helm, over "
+                             "MAVLink (spec 1.3)")
+    request.add_argument("task", nargs="?", help="task type, e.g. GoToWayPoint")
+    request.add_argument("properties", nargs="*", metavar="Key=Value",
+                         help="the task's settings, e.g. Location=10,20")
+    request.add_argument("--connect", required=True, help="where to reach the vehicle")
+    request.add_argument("--job", required=True)
+    request.add_argument("--client", required=True)
+    request.add_argument("--close", action="store_true", help="end this client's transaction")
+    request.add_argument("--target", default="1:191", help="the companion (default 1:191)")
+    request.add_argument("--source", default="1:25",
+                         help="this guest's system:component (default 1:25)")
+    request.add_argument("--wait", type=float, default=5.0, help="seconds to wait for the answer")
+    request.set_defaults(func=_request)
 
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)

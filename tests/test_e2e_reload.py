@@ -122,3 +122,39 @@ def test_a_ground_station_posts_a_remote_flag(running):
     assert "Home" in [m.string for m in run.values("TASK_STARTED")]
     assert run.companion.helm.last_winners["RUDDER"][1].name == "Home", \
         "the priority-2 task took the rudder from the priority-3 leg"
+
+
+def test_a_guest_asks_over_mavlink_and_gets_its_answer(tmp_path: Path):
+    from mavhelm.companion.guest import send_request
+    from mavhelm.companion.link import AutopilotLink
+    from mavhelm.core.thirdparty import ThirdPartyRequest
+
+    text = MISSION.format(heading=90, extra="").replace(
+        "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint\n"
+        "    Task = ConstantHeading", 1)
+    path = tmp_path / "guest.moos"
+    path.write_text(text)
+    with SimulatedRun.start(path, record=RECORD | {"THIRDPARTY_REPLY"}) as run:
+        run.hand_over()
+        run.run_for(5.0)
+        guest = AutopilotLink(f"tcp:127.0.0.1:{run.sim.ports[2]}", system_id=1,
+                              component_id=25)
+        clock = iter(range(10**6))
+
+        def steps() -> float:
+            run.step()  # the simulator forwards between its links as it steps
+            return next(clock) * 0.05
+
+        try:
+            granted = send_request(guest, ThirdPartyRequest("Sample", "iScience")
+                                   .add_property("Location", "0,0").add_property("Thrust", 60)
+                                   .execute_task("GoToWayPoint"), (1, 191), 50.0, steps)
+            denied = send_request(guest, ThirdPartyRequest("Spy", "iModem")
+                                  .add_property("Location", "0,0")
+                                  .execute_task("GoToWayPoint"), (1, 191), 50.0, steps)
+        finally:
+            guest.close()
+        assert granted == "Sample@iScience:ACCEPTED:task Sample_iScience at priority 2"
+        assert denied == ("Spy@iModem:DENIED:not allowed: no Allow line grants Spy@iModem a "
+                          "GoToWayPoint task")
+        assert run.companion.helm.last_winners["RUDDER"][1].name == "Sample_iScience"

@@ -31,6 +31,7 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
     "HELM_HANDBACK_DONE": lambda m: f"vehicle handed back to the autopilot in {m.string}",
     "HELM_RELOADED": lambda m: f"helm reloaded: {m.string}",
     "REMOTE_FLAG": lambda m: f"flag {m.string} posted by the ground station",
+    "THIRDPARTY_REPLY": lambda m: f"third party {m.string}",
     "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
 }
 """Variables shown as they are posted, and how."""
@@ -49,6 +50,7 @@ GCS_SEVERITY: dict[str, int] = {
     "HELM_HANDBACK_DONE": SEVERITY_NOTICE,
     "HELM_RELOADED": SEVERITY_NOTICE,
     "REMOTE_FLAG": SEVERITY_INFO,
+    "THIRDPARTY_REPLY": SEVERITY_INFO,
     "TASK_STARTED": SEVERITY_INFO,
     "TASK_ENDED": SEVERITY_INFO,
 }

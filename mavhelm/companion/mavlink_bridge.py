@@ -35,6 +35,12 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import Block, Entry
 from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text, Word
+from mavhelm.core.thirdparty import (
+    MAX_LENGTH,
+    REPLY_VARIABLE,
+    REQUEST_VARIABLE,
+    TUNNEL_PAYLOAD_TYPE,
+)
 
 ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
 ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
@@ -249,6 +255,8 @@ class MavlinkBridge:
         self._params_requested_at: float | None = None
         self._warned_far = False
         self.handback: HandBack | None = None
+        self._guests: dict[str, tuple[int, int]] = {}
+        """job@client → (system, component) of guests that asked over MAVLink."""
         self._last_statustext = ""
         self.input = AutopilotInput(self)
         self.output = AutopilotOutput(self)
@@ -336,6 +344,24 @@ class MavlinkBridge:
         self.link.mav.command_ack_send(msg.command, result, 0, 0, msg.get_srcSystem(),
                                        msg.get_srcComponent())
 
+    def _third_party_request(self, msg: mavlink.MAVLink_message) -> None:
+        """A guest's request in a TUNNEL (its reply goes back the same way, to its system and
+        component)."""
+        length = max(0, min(int(msg.payload_length), len(msg.payload)))
+        text = bytes(msg.payload[:length]).decode("utf-8", "replace")
+        who = text.partition(":")[0].strip()
+        self._guests[who] = (msg.get_srcSystem(), msg.get_srcComponent())
+        self.input.notify(REQUEST_VARIABLE, text)
+
+    def send_reply(self, reply: str) -> None:
+        """A third-party reply to the guest that asked over MAVLink (others read the bus)."""
+        guest = self._guests.get(reply.partition(":")[0])
+        if guest is None:
+            return
+        payload = reply.encode("utf-8")[:MAX_LENGTH]
+        self.link.mav.tunnel_send(guest[0], guest[1], TUNNEL_PAYLOAD_TYPE, len(payload),
+                                  payload.ljust(MAX_LENGTH, b"\0"))
+
     def _from_autopilot(self, msg: mavlink.MAVLink_message) -> bool:
         return (msg.get_srcSystem() == self.config.target_system
                 and msg.get_srcComponent() == self.config.target_component)
@@ -343,6 +369,10 @@ class MavlinkBridge:
     def _handle(self, msg: mavlink.MAVLink_message, now: float) -> None:
         if msg.get_type() == "COMMAND_LONG" and self._for_us(msg):
             self._command(msg)
+            return
+        if msg.get_type() == "TUNNEL" and self._for_us(msg) \
+                and msg.payload_type == TUNNEL_PAYLOAD_TYPE:
+            self._third_party_request(msg)
             return
         if not self._from_autopilot(msg):
             return
@@ -533,6 +563,8 @@ class MavlinkBridge:
         for m in mail:
             if m.name == "HELM_HANDBACK":
                 self._request_handback(m.string, now)
+            elif m.name == REPLY_VARIABLE:
+                self.send_reply(m.string)
         if self.handback is not None:
             self._drive_handback(now)
         if not self.online:
@@ -617,6 +649,7 @@ class AutopilotOutput(App):
 
     def subscriptions(self) -> set[str]:
         return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR", "HELM_HANDBACK",
+                REPLY_VARIABLE,
                 *self.bridge.servos.variables()}
 
     def on_mail(self, mail: list[Message], now: float) -> None:
