@@ -137,3 +137,14 @@ def test_mode_change_mid_mission_stops_actuation_within_one_tick():
         assert not late, "the helm kept actuating after the operator took back control"
         assert run.companion_link.received.get("SET_ATTITUDE_TARGET", 0) == sent_before
         assert [m.string for m in run.values("HELM_STATE")][-1] == "OFFLINE"
+
+
+def test_the_ground_station_is_told_what_the_helm_does(demo_run):
+    """Through the autopilot, as STATUSTEXT from the companion: online, tasks, goals, end."""
+    run, _ = demo_run
+    texts = [text for _, text in run.gcs.statustexts]
+    for line in ("helm ONLINE: autopilot armed in GUIDED", "task South started",
+                 "South steers: heading 180 deg", "task South ended: timeout",
+                 "Home steers: waypoint (60, 0) within 5 m", "task Home ended: complete",
+                 "MISSION ENDED (AllStop holds the vehicle)"):
+        assert line in texts, f"{line!r} not among {texts}"

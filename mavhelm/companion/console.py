@@ -32,6 +32,7 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
     "HELM_RELOADED": lambda m: f"helm reloaded: {m.string}",
     "REMOTE_FLAG": lambda m: f"flag {m.string} posted by the ground station",
     "THIRDPARTY_REPLY": lambda m: f"third party {m.string}",
+    "HELM_GOAL": lambda m: m.string,
     "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
 }
 """Variables shown as they are posted, and how."""
@@ -51,6 +52,7 @@ GCS_SEVERITY: dict[str, int] = {
     "HELM_RELOADED": SEVERITY_NOTICE,
     "REMOTE_FLAG": SEVERITY_INFO,
     "THIRDPARTY_REPLY": SEVERITY_INFO,
+    "HELM_GOAL": SEVERITY_INFO,
     "TASK_STARTED": SEVERITY_INFO,
     "TASK_ENDED": SEVERITY_INFO,
 }

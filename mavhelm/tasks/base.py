@@ -194,6 +194,10 @@ class Task:
         """One online tick while active: return votes, or call ``complete()``."""
         return None
 
+    def goal(self) -> str | None:
+        """What the task is steering for, in a few words for the operator (or None)."""
+        return None
+
     def terminate(self, cause: str) -> None:
         """Called once when the task ends (cause: complete, timeout or starved)."""
 

@@ -42,6 +42,9 @@ class EndMission(Task):
         if self.hand_back != "NONE":
             self.post("HELM_HANDBACK", self.hand_back)
 
+    def goal(self) -> str | None:
+        return "mission over: end values held"
+
     def update(self, nav: NavState, now: float) -> Votes | None:
         return {"RUDDER": self.end_rudder, "THRUST": self.end_thrust,
                 "ELEVATOR": self.end_elevator}

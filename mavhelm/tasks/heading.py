@@ -19,6 +19,9 @@ class ConstantHeading(SteeringTask):
     def check(self, block) -> None:
         self.heading %= 360.0
 
+    def goal(self) -> str | None:
+        return f"heading {self.heading:g} deg"
+
     def needs(self) -> set[str]:
         return {HEADING}
 

@@ -232,12 +232,16 @@ class Helm(App):
                 value = max(-limit, min(limit, value))
             self.notify(desired(actuator), value)
         owner = self.last_winners.get("RUDDER")
-        self._set_rudder_owner(owner[1].name if owner else "none")
+        self._set_rudder_owner(owner[1].name if owner else "none", owner[1] if owner else None)
 
-    def _set_rudder_owner(self, owner: str) -> None:
+    def _set_rudder_owner(self, owner: str, task: Task | None = None) -> None:
+        """Say who steers, and what for: HELM_GOAL goes to the ground station as a line."""
         if owner != self._rudder_owner:
             self._rudder_owner = owner
             self.notify("HELM_RUDDER_OWNER", owner)
+            goal = task.goal() if task is not None else None
+            if goal:
+                self.notify("HELM_GOAL", f"{owner} steers: {goal}")
 
 
 def arbitrate(ballots: list[tuple[Task, Votes]]) -> dict[str, tuple[float, Task]]:

@@ -22,6 +22,9 @@ class GoToWayPoint(SteeringTask):
     location: tuple[float, float, float | None]
     radius: float
 
+    def goal(self) -> str | None:
+        return f"waypoint ({self.location[0]:g}, {self.location[1]:g}) within {self.radius:g} m"
+
     def needs(self) -> set[str]:
         return {"NAV_X", "NAV_Y", HEADING}
 
