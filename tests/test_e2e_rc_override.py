@@ -117,3 +117,20 @@ def test_a_mav_gcs_sysid_mismatch_is_refused_with_a_clear_reason():
             "offline: MAV_GCS_SYSID is 255 but the companion speaks as system 1, so ArduPilot "
             "would ignore its RC override: set SystemID = 255 in iMAVLink")
         assert run.companion_link.received["RC_CHANNELS_OVERRIDE"] == 0
+
+
+def test_a_silent_ground_station_takes_the_rc_override_helm_offline():
+    """ArduPilot counts the companion's overrides as the ground station's sign of life, so the
+    companion watches the operator's HEARTBEAT itself and lets go when it stops."""
+    with start(sysid=255) as run:
+        run.operator.hold_switch(7, 1900)
+        run.run_until(lambda _now: run.companion.bridge.online, 5.0)
+        run.run_for(2.0)
+        run.gcs._next_heartbeat = float("inf")  # the operator's station falls silent
+        silent_from = run.clock.now()
+        run.run_until(lambda _now: not run.companion.bridge.online, 10.0)
+        went = run.clock.now() - silent_from
+        assert 4.0 < went < 6.5, f"offline {went:.1f} s after the last GCS heartbeat"
+        assert statuses(run)[-1].startswith("offline: no ground station HEARTBEAT for 5 s")
+        run.run_for(0.2)
+        assert run.sim.autopilot.rc_override[2] is None, "the throttle was released"

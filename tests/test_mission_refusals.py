@@ -19,7 +19,7 @@ DEMO = (Path(__file__).resolve().parents[1] / "examples" / "demo.moos").read_tex
 HELM_KNOWN = ("known: AppTick, TaskFile, YAW_PID_KP, YAW_PID_KD, YAW_PID_KI, "
               "YAW_PID_INTEGRAL_LIMIT, Z_TO_PITCH_PID_KP, Z_TO_PITCH_PID_KD, Z_TO_PITCH_PID_KI, "
               "Z_TO_PITCH_PID_INTEGRAL_LIMIT, PITCH_PID_KP, PITCH_PID_KD, PITCH_PID_KI, "
-              "PITCH_PID_INTEGRAL_LIMIT, MAXRUDDER, MAXTHRUST, MAXELEVATOR, MAXPITCH)")
+              "PITCH_PID_INTEGRAL_LIMIT, MAXRUDDER, MAXTHRUST, MAXELEVATOR, MAXPITCH, Allow)")
 
 
 def _span(where: str, lines: list[str]) -> tuple[int, int]:

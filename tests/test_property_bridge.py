@@ -165,7 +165,10 @@ def check_written(result: TickResult, config: BridgeConfig) -> None:
     assert all(m.get_type() != "SET_ATTITUDE_TARGET" for m in result.written_by_receive)
     for msg in result.written_by_receive + result.written_by_send:
         assert (msg.get_srcSystem(), msg.get_srcComponent()) == COMPANION
-        assert msg.get_type() in {"HEARTBEAT", "COMMAND_LONG", "SET_ATTITUDE_TARGET"}
+        assert msg.get_type() in {"HEARTBEAT", "COMMAND_LONG", "SET_ATTITUDE_TARGET",
+                                  "NAMED_VALUE_FLOAT"}
+        if msg.get_type() == "NAMED_VALUE_FLOAT":
+            assert math.isfinite(msg.value)
     for msg in result.targets():
         assert result.online, "SET_ATTITUDE_TARGET written while the helm was offline"
         assert (msg.target_system, msg.target_component) == AUTOPILOT
@@ -496,7 +499,10 @@ def test_the_rig_sees_real_mavlink_both_ways():
     result = rig.tick(1000.0, [rig.frame(GOOD_HEARTBEAT)], mail_now)
     assert result.online and rig.bridge.link_up and rig.bridge.mode == "GUIDED"
     assert {m.get_type() for m in result.written_by_receive} == {"COMMAND_LONG"}
-    assert [m.get_type() for m in result.written_by_send] == ["HEARTBEAT", "SET_ATTITUDE_TARGET"]
+    assert [m.get_type() for m in result.written_by_send] == [
+        "HEARTBEAT", "NAMED_VALUE_FLOAT", "NAMED_VALUE_FLOAT", "SET_ATTITUDE_TARGET"]
+    assert [(m.name, m.value) for m in result.written_by_send[1:3]] == [
+        ("DES_RUDDER", 10.0), ("DES_THRUST", 50.0)]
     [target] = result.targets()
     assert target.body_yaw_rate == f32(math.radians(22.5))
     assert target.thrust == 0.5

@@ -13,7 +13,11 @@ helm may not drive now) and the actions (``drive``, ``release``), one subclass p
   mode, so engaging needs an explicit signal — an RC switch (``EngageChannel`` above
   ``EngagePWM``) — and the helm releases every channel it drove (0 = back to the radio) the
   moment it goes offline for any reason. Overrides are refreshed every tick, well within
-  RC_OVERRIDE_TIME (3 s).
+  RC_OVERRIDE_TIME (3 s). ArduPilot counts an accepted RC override as a sign of life from
+  the ground station (GCS_Common.cpp, handle_rc_channels_override), so while the companion
+  drives, ArduPilot's own GCS failsafe cannot see the operator's station fall silent: the
+  profile watches the ground station's HEARTBEAT itself and goes offline (releasing) when it
+  is silent for ``GcsTimeOut``, after which ArduPilot's failsafe works as configured.
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ class AutopilotView:
     params: dict[str, float] = field(default_factory=dict)
     rc: list[int] = field(default_factory=list)
     """RC_CHANNELS as the autopilot sees them (radio, or override where one is active)."""
+    gcs_silent_s: float = math.inf
+    """Seconds since a ground station's HEARTBEAT was last heard (forwarded by ArduPilot)."""
 
 
 def rudder_to_turn_rate(rudder: float, max_rudder: float, max_turn_rate: float) -> float:
@@ -104,6 +110,7 @@ class RcOverride(Actuation):
     system_id: int
     engage_channel: int
     engage_pwm: int
+    gcs_timeout: float = 5.0
     name = "rc_override"
     driven: set[int] = field(default_factory=set)
 
@@ -138,6 +145,10 @@ class RcOverride(Actuation):
             return (f"MAV_GCS_SYSID is {gcs} but the companion speaks as system "
                     f"{self.system_id}, so ArduPilot would ignore its RC override: set "
                     f"SystemID = {gcs} in iMAVLink")
+        if view.gcs_silent_s > self.gcs_timeout:
+            return (f"no ground station HEARTBEAT for {self.gcs_timeout:g} s (ArduPilot counts "
+                    "the companion's RC override as the ground station, so the companion "
+                    "watches for the operator itself)")
         if len(view.rc) < self.engage_channel:
             return f"no RC_CHANNELS from the autopilot yet (engage switch RC{self.engage_channel})"
         pwm = view.rc[self.engage_channel - 1]

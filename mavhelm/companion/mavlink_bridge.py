@@ -57,6 +57,15 @@ DEFAULT_STREAMS: dict[str, float] = {
 }
 
 
+NAMED_VALUES: dict[str, str] = {
+    "NAV_X": "NAV_X", "NAV_Y": "NAV_Y", "NAV_HEADING": "NAV_HDG", "NAV_SPEED": "NAV_SPEED",
+    "DESIRED_RUDDER": "DES_RUDDER", "DESIRED_THRUST": "DES_THRUST",
+}
+"""Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters)."""
+
+FLOAT32_MAX = 3.4e38
+"""A MAVLink float field holds no more (and nothing non-finite is ever sent)."""
+
 CMD_RESTART_HELM = mavlink.MAV_CMD_USER_1
 """COMMAND_LONG to the companion: re-read the mission file (spec RESTART_HELM)."""
 CMD_REMOTE_FLAG = mavlink.MAV_CMD_USER_2
@@ -137,6 +146,9 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("RemoteFlag", Word(), [], repeat=True, attr="remote_flags",
           doc="a flag a ground station may post: COMMAND_LONG MAV_CMD_USER_2 to the companion "
               "with param1 = its number (1 = the first RemoteFlag line)"),
+    Param("GcsTimeOut", Number(1.0, 60.0), 5.0, "s",
+          "rc_override: offline (and released) when no ground station HEARTBEAT is heard "
+          "for this long", attr="gcs_timeout"),
     Param("Servo", ServoSpec(), [], repeat=True, attr="servos",
           doc="a named auxiliary actuator on a servo output: DESIRED_<NAME> in percent "
               "(-100..100) becomes DO_SET_SERVO with PWM min..max"),
@@ -164,6 +176,7 @@ class BridgeConfig:
     actuation: str = "guided"
     engage_channel: int | None = None
     engage_pwm: int = 1800
+    gcs_timeout: float = 5.0
     servos: list[Servo] = field(default_factory=list)
     remote_flags: list[str] = field(default_factory=list)
     max_turn_rate: float = 45.0
@@ -255,6 +268,8 @@ class MavlinkBridge:
         self._params_requested_at: float | None = None
         self._warned_far = False
         self.handback: HandBack | None = None
+        self._named_values: dict[str, float] = {}
+        self._gcs_heard_at: float | None = None
         self._guests: dict[str, tuple[int, int]] = {}
         """job@client → (system, component) of guests that asked over MAVLink."""
         self._last_statustext = ""
@@ -367,6 +382,11 @@ class MavlinkBridge:
                 and msg.get_srcComponent() == self.config.target_component)
 
     def _handle(self, msg: mavlink.MAVLink_message, now: float) -> None:
+        if msg.get_type() == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GCS \
+                and (msg.get_srcSystem(), msg.get_srcComponent()) != \
+                (self.config.system_id, self.config.component_id):
+            self._gcs_heard_at = now
+            return
         if msg.get_type() == "COMMAND_LONG" and self._for_us(msg):
             self._command(msg)
             return
@@ -491,6 +511,8 @@ class MavlinkBridge:
                                   "check its stream rates (SRn_* parameters)")
         if up:
             self._request_params(now)
+        self.view.gcs_silent_s = (math.inf if self._gcs_heard_at is None
+                                  else now - self._gcs_heard_at)
         refusal = self.actuation.refusal(self.view) if up else None
         online = (up and self.armed and self.mode in self.config.online_modes
                   and refusal is None)
@@ -555,11 +577,15 @@ class MavlinkBridge:
     # -- output ----------------------------------------------------------------------------
 
     def send(self, mail: list[Message], now: float) -> None:
+        for m in mail:
+            if m.name in NAMED_VALUES and m.is_double:
+                self._named_values[NAMED_VALUES[m.name]] = m.double
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
             self.link.mav.heartbeat_send(
                 mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                 mavlink.MAV_STATE_ACTIVE)
+            self._send_named_values(now)
         for m in mail:
             if m.name == "HELM_HANDBACK":
                 self._request_handback(m.string, now)
@@ -582,6 +608,15 @@ class MavlinkBridge:
         sent = self.actuation.drive(self.link.mav, self.view, rudder, thrust, boot_ms)
         for name, value in sent.items():
             self.output.notify(name, value)
+
+    def _send_named_values(self, now: float) -> None:
+        """Once a second, the helm's view as NAMED_VALUE_FLOAT (what ground stations list and
+        graph, and what ``mavhelm remote`` shows): pose from pNav, desired actuators."""
+        boot = now if self._boot_time is None else self._boot_time
+        boot_ms = int(max(0.0, now - boot) * 1000) & 0xFFFFFFFF
+        for name, value in self._named_values.items():
+            if math.isfinite(value) and abs(value) < FLOAT32_MAX:
+                self.link.mav.named_value_float_send(boot_ms, name.encode(), value)
 
     def _request_handback(self, mode: str, now: float) -> None:
         """EndMission asks to give the vehicle back to the autopilot in ``mode``; only done if
@@ -649,7 +684,7 @@ class AutopilotOutput(App):
 
     def subscriptions(self) -> set[str]:
         return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR", "HELM_HANDBACK",
-                REPLY_VARIABLE,
+                REPLY_VARIABLE, *NAMED_VALUES,
                 *self.bridge.servos.variables()}
 
     def on_mail(self, mail: list[Message], now: float) -> None:
@@ -668,6 +703,7 @@ def make_actuation(config: BridgeConfig) -> Actuation:
     if config.actuation == "rc_override":
         assert config.engage_channel is not None
         return RcOverride(config.target_system, config.target_component, config.max_rudder,
-                          config.system_id, config.engage_channel, config.engage_pwm)
+                          config.system_id, config.engage_channel, config.engage_pwm,
+                          config.gcs_timeout)
     return Guided(config.target_system, config.target_component, config.max_rudder,
                   config.max_turn_rate)

@@ -194,7 +194,7 @@ class Task:
         """One online tick while active: return votes, or call ``complete()``."""
         return None
 
-    def goal(self) -> str | None:
+    def describe_goal(self) -> str | None:
         """What the task is steering for, in a few words for the operator (or None)."""
         return None
 

@@ -42,7 +42,7 @@ class EndMission(Task):
         if self.hand_back != "NONE":
             self.post("HELM_HANDBACK", self.hand_back)
 
-    def goal(self) -> str | None:
+    def describe_goal(self) -> str | None:
         return "mission over: end values held"
 
     def update(self, nav: NavState, now: float) -> Votes | None:

@@ -19,7 +19,7 @@ class ConstantHeading(SteeringTask):
     def check(self, block) -> None:
         self.heading %= 360.0
 
-    def goal(self) -> str | None:
+    def describe_goal(self) -> str | None:
         return f"heading {self.heading:g} deg"
 
     def needs(self) -> set[str]:

@@ -239,7 +239,7 @@ class Helm(App):
         if owner != self._rudder_owner:
             self._rudder_owner = owner
             self.notify("HELM_RUDDER_OWNER", owner)
-            goal = task.goal() if task is not None else None
+            goal = task.describe_goal() if task is not None else None
             if goal:
                 self.notify("HELM_GOAL", f"{owner} steers: {goal}")
 

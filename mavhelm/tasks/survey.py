@@ -47,7 +47,8 @@ class Survey(RouteTask):
         Param("Lead", LEAD, DEFAULT_LEAD, "m",
               "the carrot's lead along each line beyond the vehicle's projection on it"),
         Param("LegTimeOut", Seconds(), None, "s",
-              "a leg flown longer than this is abandoned for the next one; NEVER: no limit",
+              "a leg flown longer than this is abandoned for the next one (default NEVER: "
+              "no limit)",
               attr="leg_timeout"),
     )
     center: tuple[float, float, float | None]

@@ -17,17 +17,31 @@ integral learns that crab angle instead:
     desired heading = bearing to the carrot − clamp(KI · ∫XTE dt, ±LIMIT)
 
 with KI = ``XTE_KI`` (1 deg of heading per metre-second) and LIMIT = ``XTE_LIMIT`` (20°, enough
-to crab against a set of a third of the boat's speed). It is
+to crab against a set of a third of the boat's speed). The hard part of any integral on a line
+follower is wind-up: XTE during an approach to the line or a turn onto it is transient, pure
+pursuit removes it by itself, and integrating it only makes the vehicle overshoot (in the
+simulator, integrating whenever within a Lead of the line tripled the XTE after a 90° turn).
+So the integral learns only what pure pursuit cannot fix, an *offset held*:
 
-- integrated on the navigation's own time stamps (like the PID, spec 1.4.1), only while the
-  vehicle is within one Lead of the line, so a long approach from far off does not wind it up;
-- clamped (anti-windup), and reset when the task goes active and at the start of every line of
-  a route, because a set learned on one line is wrong on a line in another direction.
+- it runs only while the vehicle is within one Lead of the line, making way along it
+  (≥ 0.1 m/s), and its track over the ground (from fixes ≥ 1 s apart) has stayed within 10° of
+  the line's direction for 2 s — a vehicle held off by a set runs parallel to the line, one
+  closing on it or turning does not, and the far point of a swing is parallel only for a
+  moment. Heading alone could not tell these apart: a vehicle crabbing into a current points
+  at the line while it runs along it;
+- it is integrated on the navigation's own time stamps (like the PID, spec 1.4.1), at most 1 s
+  per step (a gap in the data is not a long offset), and clamped (anti-windup);
+- it is reset when the task goes active, when the helm comes back online after a human had the
+  vehicle, and at the start of every line of a route, because a set learned on one line is
+  wrong on a line in another direction.
 
-Linearised, the cross-track loop is ``e'' + (V/Lead)·e' + V·KI·e = 0``: well damped (ζ ≈ 0.8
-at 1.6 m/s with Lead 5, more at higher speed or a longer Lead) and it removes a steady offset
-in about 10–20 s. Every tick the task posts ``<NAME>_XTE``, the signed cross-track error in
-metres (positive: the vehicle is to starboard of the line, looking from P1 to P2).
+Linearised, with the gate open, the cross-track loop is ``e'' + (V/Lead)·e' + V·KI·e = 0``:
+well damped (ζ ≈ 0.8 at 1.6 m/s with Lead 5, more at higher speed or a longer Lead) and it
+removes a steady offset in about 10–20 s. In the simulator, 0.3 m/s of current across the line
+leaves pure pursuit 0.75 m off (RMS); with the integral it holds 0.2 m, as in still water.
+
+Every tick the task posts ``<NAME>_XTE``, the signed cross-track error in metres (positive: the
+vehicle is to starboard of the line, looking from P1 to P2).
 
 The line and its end. Without ``P1`` the line starts where the vehicle is when the task goes
 active (its first tick with a position): the "previous waypoint" when TrackLine tasks are chained
@@ -39,6 +53,7 @@ vehicle is within ``Radius`` of P2, or when its along-track distance passes the 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Number, Param, Point
@@ -56,6 +71,19 @@ XTE_KI = 1.0
 """Heading correction in degrees per metre-second of integrated cross-track error."""
 XTE_LIMIT = 20.0
 """Largest heading correction the integral may make, in degrees."""
+GATE_ANGLE = 10.0
+"""The integral runs only while the track over the ground is within this many degrees of the
+line's direction (the vehicle is holding an offset, not closing on the line or turning)."""
+RATE_BASELINE_S = 1.0
+"""The ground track is measured between fixes at least this far apart (GPS noise)."""
+STEADY_S = 2.0
+"""...and only once that has held this long: at the far point of a swing off the line the
+track is parallel to it for a moment, which is not an offset to learn."""
+MIN_PROGRESS = 0.1
+"""Nor while the vehicle makes less than this many m/s along the line (stopped, held back)."""
+
+MAX_STEP_S = 1.0
+"""Longest time step integrated at once: a gap in the navigation is not a long offset."""
 
 MAX_ADVANCES_PER_TICK = 1000
 """A route moves on at most this many lines in one tick (bounds the work of any route)."""
@@ -73,12 +101,49 @@ class LineFollower:
         self.xte = 0.0
         self.integral = 0.0
         """∫XTE dt in metre-seconds."""
+        self.integrating = False
+        """Whether the last step was integrated (the gate was open)."""
         self._last_time: float | None = None
+        self._fixes: deque[tuple[float, float, float]] = deque()
+        self._steady_since: float | None = None
 
     @property
     def correction(self) -> float:
         """The integral's heading correction in degrees (subtracted from the carrot bearing)."""
         return max(-XTE_LIMIT, min(XTE_LIMIT, XTE_KI * self.integral))
+
+    def reset(self) -> None:
+        """Forget the learned correction (the vehicle was driven by someone else)."""
+        self.integral = 0.0
+        self.integrating = False
+        self._last_time = None
+        self._fixes.clear()
+        self._steady_since = None
+
+    def _holding_offset(self, t: float) -> bool:
+        """The gate: near the line, moving along it, its ground track parallel to it for a
+        while."""
+        steady = self._parallel(t)
+        if not steady:
+            self._steady_since = None
+            return False
+        if self._steady_since is None:
+            self._steady_since = t
+        return t - self._steady_since >= STEADY_S
+
+    def _parallel(self, t: float) -> bool:
+        fixes = self._fixes
+        fixes.append((t, self.along, self.xte))
+        while len(fixes) > 1 and t - fixes[1][0] >= RATE_BASELINE_S:
+            fixes.popleft()
+        t0, along0, xte0 = fixes[0]
+        span = t - t0
+        if span < RATE_BASELINE_S or abs(self.xte) >= self.lead:
+            return False
+        progress = (self.along - along0) / span
+        sideways = (self.xte - xte0) / span
+        return progress >= MIN_PROGRESS and \
+            abs(math.degrees(math.atan2(sideways, progress))) < GATE_ANGLE
 
     def measure(self, p: Point2) -> None:
         self.along, self.xte = track_position(self.p1, self.p2, p)
@@ -93,11 +158,12 @@ class LineFollower:
         self.measure(p)
         if self.length < DEGENERATE:
             return bearing(p, self.p2)
-        if self._last_time is not None and t > self._last_time and abs(self.xte) < self.lead:
-            self.integral += self.xte * (t - self._last_time)
-            bound = XTE_LIMIT / XTE_KI
-            self.integral = max(-bound, min(bound, self.integral))
         if self._last_time is None or t > self._last_time:
+            self.integrating = self._holding_offset(t)
+            if self.integrating and self._last_time is not None:
+                self.integral += self.xte * min(t - self._last_time, MAX_STEP_S)
+                bound = XTE_LIMIT / XTE_KI
+                self.integral = max(-bound, min(bound, self.integral))
             self._last_time = t
         goal = carrot(self.p1, self.p2, p, self.lead)
         if distance(p, goal) < DEGENERATE:
@@ -117,15 +183,27 @@ class RouteTask(SteeringTask):
     """
 
     lead: float = DEFAULT_LEAD
+    follower: LineFollower | None = None
+    index = -1
 
     def needs(self) -> set[str]:
         return {"NAV_X", "NAV_Y", HEADING}
 
     def initialise(self, now: float) -> None:
-        self.follower: LineFollower | None = None
-        self.index = -1
-        """The target the vehicle is now steering for (-1 before the first tick)."""
+        self.follower = None
+        self.index = -1  # the target steered for; -1 until the first tick with a position
         self.segment_start_time = now
+
+    def resume(self, now: float | None = None) -> None:
+        super().resume(now)
+        if self.follower is not None:
+            self.follower.reset()
+
+    def describe_goal(self) -> str | None:
+        p2 = self.target(self.index) if self.index >= 0 else None
+        if p2 is None:
+            return f"{self.keyword} route"
+        return f"{self.keyword} line to ({p2[0]:.0f}, {p2[1]:.0f})"
 
     # ---- hooks -------------------------------------------------------------------------
 

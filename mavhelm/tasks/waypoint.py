@@ -22,7 +22,7 @@ class GoToWayPoint(SteeringTask):
     location: tuple[float, float, float | None]
     radius: float
 
-    def goal(self) -> str | None:
+    def describe_goal(self) -> str | None:
         return f"waypoint ({self.location[0]:g}, {self.location[1]:g}) within {self.radius:g} m"
 
     def needs(self) -> set[str]:
