@@ -405,7 +405,11 @@ class RealOperator:
     """
 
     def __init__(self, port: int, *, host: str = "127.0.0.1", target_system: int = 1,
-                 target_component: int = 1, connect_timeout_s: float = 10.0) -> None:
+                 target_component: int = 1, connect_timeout_s: float = 10.0,
+                 heartbeat_s: float = 1.0) -> None:
+        self.heartbeat_s = heartbeat_s
+        """Wall seconds between this GCS's heartbeats: 1/speedup keeps the 1 Hz of the
+        autopilot's time a real ground station gives a SITL running in real time."""
         self.conn = connect_tcp(port, source_system=GCS_SYSTEM_ID,
                                 source_component=GCS_COMPONENT_ID, host=host,
                                 timeout_s=connect_timeout_s)
@@ -440,7 +444,7 @@ class RealOperator:
         """Send the heartbeat if due, wait up to ``timeout_s`` for data, handle what arrived."""
         now = time.monotonic()
         if now >= self._next_heartbeat:
-            self._next_heartbeat = now + 1.0
+            self._next_heartbeat = now + self.heartbeat_s
             self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
                                          0, 0, mavlink.MAV_STATE_ACTIVE)
         wait_readable(self.conn, min(timeout_s, max(0.0, self._next_heartbeat - now)))

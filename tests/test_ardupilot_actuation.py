@@ -136,8 +136,8 @@ class Operator(RealOperator):
     RC_CHANNELS and SERVO_OUTPUT_RAW with its autopilot time. The parser is MAVLink 2's
     (mavutil's default is 1's): SERVO_OUTPUT_RAW's servo9_raw is an extension field."""
 
-    def __init__(self, port: int) -> None:
-        super().__init__(port)
+    def __init__(self, port: int, speedup: float = 1.0) -> None:
+        super().__init__(port, heartbeat_s=1.0 / speedup)
         self.conn.mav = mavlink.MAVLink(self.conn, srcSystem=GCS_SYSTEM_ID,
                                         srcComponent=GCS_COMPONENT_ID)
         self.conn.mav.robust_parsing = True
@@ -191,7 +191,7 @@ class Operator(RealOperator):
 
 
 def start_operator(sitl) -> Operator:
-    op = Operator(sitl.ports.serial0)
+    op = Operator(sitl.ports.serial0, sitl.speedup)
     op.request_streams(STREAM_HZ)
     op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
     op.request_interval("RC_CHANNELS", RC_HZ)       # asked before it runs, this is ignored
