@@ -191,6 +191,13 @@ def build_parser() -> argparse.ArgumentParser:
     request.add_argument("--wait", type=float, default=5.0, help="seconds to wait for the answer")
     request.set_defaults(func=_request)
 
+    from mavhelm.companion import remote as remote_console
+
+    remote = sub.add_parser("remote", help="the iRemote console: a terminal ground station "
+                            "(space = ALL STOP, o = GUIDED/MANUAL, R = restart helm)")
+    remote_console.add_arguments(remote)
+    remote.set_defaults(func=remote_console.run)
+
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)
     sim.set_defaults(func=_sim)

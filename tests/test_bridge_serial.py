@@ -249,3 +249,17 @@ def test_a_refused_hand_back_is_retried_then_reported(serial_link):
     assert asked == 3
     assert errors == ["ArduPilot did not take the vehicle in HOLD (DO_SET_MODE refused, result "
                       "4; it said: Flight mode change failed): the helm keeps the end values"]
+
+
+def test_the_helm_status_says_when_the_ekf_would_refuse_guided(serial_link):
+    ap, bridge, bus, clock = serial_link
+    ap.send(mavlink.MAVLink_ekf_status_report_message(0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    ap.heartbeat(0, armed=False)
+    assert tick(bridge, bus, clock)["HELM_STATUS"] == (
+        "offline: autopilot disarmed (arm it and select GUIDED to hand over); its EKF has no "
+        "position yet, so ArduPilot will refuse GUIDED")
+    ap.send(mavlink.MAVLink_ekf_status_report_message(mavlink.EKF_POS_HORIZ_ABS, 0.0, 0.0,
+                                                      0.0, 0.0, 0.0))
+    ap.heartbeat(0, armed=True)
+    assert tick(bridge, bus, clock)["HELM_STATUS"] == (
+        "offline: autopilot in MANUAL; select GUIDED to hand over")

@@ -148,3 +148,13 @@ def test_the_ground_station_is_told_what_the_helm_does(demo_run):
                  "Home steers: waypoint (60, 0) within 5 m", "task Home ended: complete",
                  "MISSION ENDED (AllStop holds the vehicle)"):
         assert line in texts, f"{line!r} not among {texts}"
+
+
+def test_a_long_helm_line_reaches_the_ground_station_whole(demo_run):
+    """Longer than STATUSTEXT's 50 bytes: sent in MAVLink 2 chunks, joined again by the GCS."""
+    run, _ = demo_run
+    texts = [text for _, text in run.gcs.statustexts]
+    long_lines = [t for t in texts if len(t) > 50]
+    assert "helm offline: autopilot disarmed (arm it and select GUIDED to hand over)" in texts
+    assert all(t.startswith(("helm ", "task ", "MISSION")) or "steers" in t
+               for t in long_lines), long_lines

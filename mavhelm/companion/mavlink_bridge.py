@@ -63,6 +63,9 @@ NAMED_VALUES: dict[str, str] = {
 }
 """Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters)."""
 
+STATUSTEXT_MAX = 200
+"""Longest line sent to the ground station (four chunks)."""
+
 FLOAT32_MAX = 3.4e38
 """A MAVLink float field holds no more (and nothing non-finite is ever sent)."""
 
@@ -269,6 +272,7 @@ class MavlinkBridge:
         self._warned_far = False
         self.handback: HandBack | None = None
         self._named_values: dict[str, float] = {}
+        self._statustext_id = 0
         self._gcs_heard_at: float | None = None
         self._guests: dict[str, tuple[int, int]] = {}
         """job@client → (system, component) of guests that asked over MAVLink."""
@@ -558,10 +562,14 @@ class MavlinkBridge:
                 return "offline: connected, waiting for the autopilot's HEARTBEAT"
             return (f"offline: no HEARTBEAT from the autopilot for "
                     f"{self.config.link_timeout:g} s")
+        no_fix = ("; its EKF has no position yet, so ArduPilot will refuse GUIDED"
+                  if self.ekf_position_ok is False and "GUIDED" in self.config.online_modes
+                  else "")
         if not self.armed:
-            return f"offline: autopilot disarmed (arm it and select {modes} to hand over)"
+            return (f"offline: autopilot disarmed (arm it and select {modes} to hand over)"
+                    + no_fix)
         if self.mode not in self.config.online_modes:
-            return f"offline: autopilot in {self.mode}; select {modes} to hand over"
+            return f"offline: autopilot in {self.mode}; select {modes} to hand over" + no_fix
         return f"offline: {refusal}"
 
     def _request_streams(self, now: float) -> None:
@@ -594,6 +602,8 @@ class MavlinkBridge:
         if self.handback is not None:
             self._drive_handback(now)
         if not self.online:
+            for name in ("DES_RUDDER", "DES_THRUST"):
+                self._named_values.pop(name, None)  # not driving: no demand to show
             return
         desired = {m.name: m.value for m in mail if m.is_double}
         for servo, pwm in self.servos.update(self.link.mav, desired, now):
@@ -656,8 +666,16 @@ class MavlinkBridge:
         return 0.0
 
     def send_statustext(self, text: str, severity: int) -> None:
-        """A line for the ground station's message pane (MAVLink's 50 characters at most)."""
-        self.link.mav.statustext_send(severity, text.encode("utf-8", "replace")[:50])
+        """A line for the ground station's message pane. MAVLink 2 carries 50 bytes a message;
+        a longer line goes in chunks sharing an id, which ground stations put back together."""
+        data = text.encode("utf-8", "replace")[:STATUSTEXT_MAX]
+        if len(data) <= 50:
+            self.link.mav.statustext_send(severity, data)
+            return
+        self._statustext_id = self._statustext_id % 65535 + 1
+        for seq, start in enumerate(range(0, len(data), 50)):
+            self.link.mav.statustext_send(severity, data[start:start + 50],
+                                          self._statustext_id, seq)
 
     def close(self) -> None:
         self.link.close()

@@ -28,6 +28,7 @@ class GroundStation:
     statustexts: list[tuple[float, str]] = field(default_factory=list)
     heartbeats: int = 0
     _next_heartbeat: float = 0.0
+    _chunks: dict[tuple[int, int], list[str]] = field(default_factory=dict)
 
     @classmethod
     def connect(cls, device: str) -> GroundStation:
@@ -67,7 +68,19 @@ class GroundStation:
         elif kind == "COMMAND_ACK":
             self.acks.append((now, msg.command, msg.result))
         elif kind == "STATUSTEXT":
+            self._statustext(msg, now)
+
+    def _statustext(self, msg, now: float) -> None:
+        """Lines of more than 50 bytes come in chunks with one id (MAVLink 2): join them."""
+        chunk_id = getattr(msg, "id", 0)
+        if not chunk_id:
             self.statustexts.append((now, msg.text))
+            return
+        parts = self._chunks.setdefault((msg.get_srcComponent(), chunk_id), [])
+        parts.append(msg.text)
+        if len(msg.text) < 50:
+            self.statustexts.append((now, "".join(parts)))
+            del self._chunks[(msg.get_srcComponent(), chunk_id)]
 
     def command(self, command: int, *params: float) -> None:
         values = list(params) + [0.0] * (7 - len(params))
