@@ -12,6 +12,11 @@ arms first: GUIDED when armed needs a position estimate, which is what a real GC
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import threading
+import time
+
 import pytest
 from interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
 from pymavlink import mavutil
@@ -75,3 +80,84 @@ def test_mavproxy_mode_guided_is_seen_by_the_companion_link(tmp_path):
                 hb = companion.wait_for("HEARTBEAT", lambda m: not armed(m), 5,
                                         "a disarmed HEARTBEAT")
                 assert hb.custom_mode == GUIDED
+
+
+RELOAD_MISSION = """
+LatOrigin = 56.0
+LongOrigin = -3.0
+ProcessConfig = iMAVLink
+{{
+    RemoteFlag = GoHome
+}}
+ProcessConfig = pNav
+{{
+    X = GPS @ 2.0
+    Y = GPS @ 2.0
+    Yaw = INS @ 1.0
+}}
+ProcessConfig = pHelm
+{{
+    Task = Timer
+    {{
+        Name = {name}
+        TimeOut = 600
+    }}
+    Task = Timer
+    {{
+        Name = Home
+        TimeOut = 600
+        StartFlag = GoHome
+    }}
+    Task = OverallTimeOut
+    {{
+        TimeOut = 3600
+        FinishFlag = EndMission
+    }}
+    Task = EndMission
+    {{
+        StartFlag = EndMission
+    }}
+}}
+"""
+
+
+def test_the_documented_mavproxy_lines_reload_the_helm_and_post_a_remote_flag(tmp_path):
+    """README: `set target_component 191`, then `long USER_1 1` (RESTART_HELM) and
+    `long USER_2 1` (the first RemoteFlag), typed into a real MAVProxy."""
+    _import_mavproxy()
+    mission = tmp_path / "reload.moos"
+    mission.write_text(RELOAD_MISSION.format(name="First"))
+    with SimProcess("--fast-start") as sim:
+        companion_port, gcs_port = sim.ports[1], sim.ports[0]
+        proc = subprocess.Popen(
+            [sys.executable, "-u", "-m", "mavhelm.cli", "run", str(mission), "--connect",
+             f"tcp:127.0.0.1:{companion_port}", "--log-dir", str(tmp_path / "logs")],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        lines: list[str] = []
+        reader = threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")),
+                                  daemon=True)
+        reader.start()
+
+        def wait_line(fragment: str, seconds: float) -> str:
+            deadline = time.monotonic() + seconds
+            while time.monotonic() < deadline:
+                found = [line for line in list(lines) if fragment in line]
+                if found:
+                    return found[-1]
+                time.sleep(0.05)
+            raise AssertionError(f"no {fragment!r} from the companion: {lines[-10:]}")
+
+        try:
+            wait_line("link to tcp:127.0.0.1", 15)
+            with MavproxyProcess(f"tcp:127.0.0.1:{gcs_port}", tmp_path) as mavproxy:
+                mavproxy.wait_for(r"Detected vehicle 1:1", 15)
+                mission.write_text(RELOAD_MISSION.format(name="Second"))
+                mavproxy.send("set target_component 191")
+                mavproxy.send("long USER_1 1")
+                line = wait_line("helm reloaded", 15)
+                assert line.rstrip().endswith(f"helm reloaded: {mission}: 4 tasks")
+                mavproxy.send("long USER_2 1")
+                wait_line("flag GoHome posted by the ground station", 15)
+        finally:
+            proc.terminate()
+            proc.wait(30)
