@@ -11,14 +11,16 @@ from mavhelm.core.errors import LocatedError
 
 
 def _run(args: argparse.Namespace) -> int:
-    from mavhelm.companion.companion import Companion
+    from mavhelm.companion.alog import log_dir as mission_log_dir
+    from mavhelm.companion.companion import Companion, Plan
     from mavhelm.core.clock import AutopilotClock, WallClock
 
     clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
-    log_dir = Path(args.log_dir)
+    plan = Plan.from_mission(args.mission, clock, connect=args.connect)
+    log_dir = Path(args.log_dir or mission_log_dir(plan.mission))
     log_dir.mkdir(parents=True, exist_ok=True)
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
-    companion = Companion.build(args.mission, clock, connect=args.connect, alog_path=alog,
+    companion = Companion.build(plan.mission, clock, connect=args.connect, alog_path=alog,
                                 echo=lambda line: print(line, flush=True))
     print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
           flush=True)
@@ -158,7 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("mission", help="mission file (.moos)")
     run.add_argument("--connect", help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
                      "serial device such as /dev/ttyAMA0 (default: the mission's Connect)")
-    run.add_argument("--log-dir", default="runs", help="where the .alog goes (default runs/)")
+    run.add_argument("--log-dir", default=None,
+                     help="where the .alog goes (default: the mission's pLogger LogDir, runs/)")
     run.add_argument("--exit-at-end", action="store_true",
                      help="exit once EndMission is active and any HandBack is settled "
                           "(default: keep running, holding the end values while online)")

@@ -144,7 +144,7 @@ def test_an_unknown_process_block_is_refused(tmp_path):
         Plan.from_mission(path, SimClock())
     line = len(DEMO) + 1
     assert str(err.value) == (f"{path}:{line}: unknown ProcessConfig = pHlem "
-                              "(known: iMAVLink, pNav, pHelm)")
+                              "(known: iMAVLink, pNav, pHelm, pLogger)")
 
 
 def test_a_setting_given_twice_is_refused_at_the_second(tmp_path):
@@ -219,3 +219,17 @@ def test_stdin_as_task_file_is_not_read(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.startswith(f"mavhelm: {path}:{line}: cannot read TaskFile '/dev/stdin': ")
     assert "not a regular file" in proc.stderr
+
+
+def test_the_logger_block_is_checked_like_every_other(tmp_path):
+    from mavhelm.companion.alog import log_dir
+    from mavhelm.core.mission import load_mission
+
+    path = tmp_path / "m.moos"
+    path.write_text("\n".join(DEMO) + "\nProcessConfig = pLogger\n{\n  LogDir = /data/logs\n}\n")
+    assert log_dir(load_mission(path)) == "/data/logs"
+    path.write_text("\n".join(DEMO) + "\nProcessConfig = pLogger\n{\n  SyncLog = true\n}\n")
+    with pytest.raises(MissionError) as err:
+        Plan.from_mission(path, SimClock())
+    assert str(err.value) == (f"{path}:{len(DEMO) + 3}: unknown setting 'SyncLog' for pLogger "
+                              "(known: LogDir)")

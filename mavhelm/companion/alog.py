@@ -15,6 +15,19 @@ from typing import TextIO
 
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
+from mavhelm.core.mission import Block, Mission
+from mavhelm.core.params import Param, Schema, Text
+
+LOGGER_SCHEMA = Schema("pLogger", (
+    Param("LogDir", Text(), "runs", doc="folder for the .alog, relative to where mavhelm run "
+          "is started; `mavhelm run --log-dir` overrides it", attr="log_dir"),
+))
+
+
+def log_dir(mission: Mission) -> str:
+    """The pLogger block's LogDir (checked like every block), or its default."""
+    block = mission.process("pLogger") or Block("ProcessConfig", "pLogger", mission.path, 0)
+    return LOGGER_SCHEMA.read(block)["log_dir"]
 
 _BANNER = "%" * 60
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf)", re.IGNORECASE)

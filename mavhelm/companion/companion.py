@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mavhelm.companion.alog import AlogLogger
+from mavhelm.companion.alog import AlogLogger, log_dir
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
@@ -25,7 +25,7 @@ from mavhelm.core.mission import Mission, MissionError, load_mission
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
 
-PROCESSES = ("iMAVLink", "pNav", "pHelm")
+PROCESSES = ("iMAVLink", "pNav", "pHelm", "pLogger")
 """The ProcessConfig blocks a mission may hold: one per app of the companion."""
 
 
@@ -88,6 +88,7 @@ class Plan:
             mission = load_mission(mission)
         origin = mission_origin(mission)
         check_processes(mission)
+        log_dir(mission)
         bus = Bus(clock)
         navigator = Navigator.from_mission(bus, mission)
         helm = Helm.from_mission(bus, mission)

@@ -6,6 +6,7 @@ two differ, so the documentation cannot drift from what a mission may say.
 
 from __future__ import annotations
 
+from mavhelm.companion.alog import LOGGER_SCHEMA
 from mavhelm.companion.companion import PROCESSES
 from mavhelm.companion.mavlink_bridge import IMAVLINK_SCHEMA
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
@@ -20,6 +21,7 @@ PROCESS_SCHEMAS: dict[str, tuple[Schema, str]] = {
     "pNav": (NAV_SCHEMA, "The navigator: one priority queue per NAV_* key (spec 2.1). "
              "YAW is radians (yaw = −heading), HEADING degrees; configure one of the two."),
     "pHelm": (HELM_SCHEMA, "The helm's own settings; its `Task = Type { … }` blocks are below."),
+    "pLogger": (LOGGER_SCHEMA, "The .alog of every bus variable (MOOS pLogger's format)."),
 }
 assert tuple(PROCESS_SCHEMAS) == PROCESSES
 
