@@ -33,6 +33,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -590,3 +591,63 @@ def truth_track(op: RealOperator, since_wall: float = 0.0,
     coslat = math.cos(math.radians(lat0 * 1e-7))
     return [(boot / 1000.0, (lat - lat0) * k, (lng - lng0) * k * coslat, yaw)
             for boot, lat, lng, yaw in rows]
+
+
+class CompanionProcess:
+    """``mavhelm run MISSION --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own
+    process (or the same through ``launcher``, a command standing in for ``python -m
+    mavhelm.cli``); its console lines are collected, with the wall time each was read."""
+
+    def __init__(self, mission: Path, port: int, log_dir: Path, *,
+                 launcher: list[str] | None = None) -> None:
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        head = launcher or [sys.executable, "-m", "mavhelm.cli"]
+        self.cmd = head + ["run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
+                           "--clock", "autopilot", "--log-dir", str(self.log_dir)]
+        self.lines: list[tuple[float, str]] = []
+        self.started_wall = time.monotonic()
+        self.proc = subprocess.Popen(
+            self.cmd, cwd=self.log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, text=True, bufsize=1,
+            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append((time.monotonic(), line.rstrip("\n")))
+
+    def running(self) -> bool:
+        return self.proc.poll() is None
+
+    def find(self, fragment: str, nth: int = 1) -> tuple[float, str] | None:
+        """The ``nth`` console line containing ``fragment``: (wall time read, line)."""
+        hits = [(t, line) for t, line in list(self.lines) if fragment in line]
+        return hits[nth - 1] if len(hits) >= nth else None
+
+    def find_all(self, fragment: str) -> list[str]:
+        return [line for _, line in list(self.lines) if fragment in line]
+
+    def output(self, last: int = 40) -> str:
+        return "\n".join(line for _, line in list(self.lines)[-last:])
+
+    def stop(self) -> int:
+        """SIGTERM (its own pid), as systemd would; SIGKILL after 10 s. Returns the exit code."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(10.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._reader.join(5.0)
+        return self.proc.returncode
+
+    def alog(self) -> list:
+        from mavhelm.companion.alog import read_alog
+
+        paths = sorted(self.log_dir.glob("*.alog"))
+        assert len(paths) == 1, f"expected one .alog in {self.log_dir}, found {paths}"
+        return read_alog(paths[0])

@@ -16,18 +16,13 @@ Needs MAVHELM_ARDUPILOT (see tests/ardupilot.py); skips without it.
 from __future__ import annotations
 
 import math
-import signal
-import subprocess
-import sys
-import threading
 import time
 from pathlib import Path
 
 import pytest
-from ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, RealOperator, _set_parent_death_signal
+from ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, CompanionProcess, RealOperator
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.alog import read_alog
 from mavhelm.core.bus import Message
 
 # real_sitl: fixture in conftest.py
@@ -201,56 +196,12 @@ def start_operator(sitl) -> Operator:
 
 # -- the companion process ----------------------------------------------------------------------
 
-class CompanionProcess:
-    """``mavhelm run MISSION --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own
-    process; its console lines are collected (with the wall time they were read)."""
-
-    def __init__(self, mission_text: str, port: int, folder: Path) -> None:
-        self.folder = Path(folder)
-        self.folder.mkdir(parents=True, exist_ok=True)
-        mission = self.folder / "mission.moos"
-        mission.write_text(mission_text)
-        self.cmd = [sys.executable, "-m", "mavhelm.cli", "run", str(mission), "--connect",
-                    f"tcp:127.0.0.1:{port}", "--clock", "autopilot", "--log-dir",
-                    str(self.folder / "logs")]
-        self.lines: list[tuple[float, str]] = []
-        self.proc = subprocess.Popen(
-            self.cmd, cwd=self.folder, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    def running(self) -> bool:
-        return self.proc.poll() is None
-
-    def find_all(self, fragment: str) -> list[str]:
-        return [line for _, line in list(self.lines) if fragment in line]
-
-    def output(self, last: int = 40) -> str:
-        return "\n".join(line for _, line in list(self.lines)[-last:])
-
-    def stop(self) -> int:
-        """SIGTERM (its own pid); SIGKILL after 10 s. Returns the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
-        return self.proc.returncode
-
-    def alog(self) -> list[Message]:
-        paths = sorted((self.folder / "logs").glob("*.alog"))
-        assert len(paths) == 1, f"expected one .alog in {self.folder / 'logs'}, found {paths}"
-        return read_alog(paths[0])
+def companion(mission_text: str, port: int, folder: Path) -> CompanionProcess:
+    """The mission written to ``folder`` and ``mavhelm run`` started on it."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mission = folder / "mission.moos"
+    mission.write_text(mission_text)
+    return CompanionProcess(mission, port, folder / "logs")
 
 
 def wait_for(op: Operator, comp: CompanionProcess, predicate, what: str,
@@ -329,7 +280,7 @@ def test_rc_override_drives_in_manual_on_the_switch_and_releases_at_once(real_si
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = CompanionProcess(RC_MISSION.format(sysid=GCS_SYSTEM_ID), sitl.ports.serial1,
+        comp = companion(RC_MISSION.format(sysid=GCS_SYSTEM_ID), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -431,7 +382,7 @@ def test_rc_override_refuses_a_mav_gcs_sysid_mismatch(real_sitl, tmp_path) -> No
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = CompanionProcess(RC_MISSION.format(sysid=1), sitl.ports.serial1,
+        comp = companion(RC_MISSION.format(sysid=1), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -469,7 +420,7 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
         # WINCH on the free output 9
-        comp = CompanionProcess(SERVO_MISSION.format(output=9), sitl.ports.serial1,
+        comp = companion(SERVO_MISSION.format(output=9), sitl.ports.serial1,
                                 tmp_path / "winch9")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -484,7 +435,7 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
         # WINCH on output 1, the motorboat's steering: refused by ArduPilot, reported once
         start1 = op.boot_ms
         assert start1 is not None
-        comp = CompanionProcess(SERVO_MISSION.format(output=1), sitl.ports.serial1,
+        comp = companion(SERVO_MISSION.format(output=1), sitl.ports.serial1,
                                 tmp_path / "winch1")
         try:
             wait_line(op, comp, "helm ONLINE")

@@ -21,10 +21,8 @@ from __future__ import annotations
 import math
 import queue
 import selectors
-import signal
 import socket
 import statistics
-import subprocess
 import sys
 import threading
 import time
@@ -33,17 +31,16 @@ from pathlib import Path
 
 import pytest
 from ardupilot import (
+    CompanionProcess,
     RealOperator,
     _candidates,
     _claim,
-    _set_parent_death_signal,
     instance_free,
     instance_ports,
     truth_track,
 )
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.alog import read_alog
 from mavhelm.core.bus import Message
 
 # real_sitl: fixture in conftest.py
@@ -86,58 +83,7 @@ sys.exit(cli.main(sys.argv[1:]))
 
 # -- the companion process ---------------------------------------------------------------------
 
-class CompanionProcess:
-    """``mavhelm run DEMO --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own process;
-    its console lines are collected (with the wall time they were read) by a thread."""
-
-    def __init__(self, port: int, log_dir: Path, *, tick_marks: bool = False) -> None:
-        self.log_dir = Path(log_dir)
-        self.log_dir.mkdir(parents=True, exist_ok=True)
-        head = [sys.executable, "-c", TICK_LAUNCHER] if tick_marks \
-            else [sys.executable, "-m", "mavhelm.cli"]
-        self.cmd = head + ["run", str(DEMO), "--connect", f"tcp:127.0.0.1:{port}",
-                           "--clock", "autopilot", "--log-dir", str(self.log_dir)]
-        self.lines: list[tuple[float, str]] = []
-        self.started_wall = time.monotonic()
-        self.proc = subprocess.Popen(
-            self.cmd, cwd=self.log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    def running(self) -> bool:
-        return self.proc.poll() is None
-
-    def find(self, fragment: str, nth: int = 1) -> tuple[float, str] | None:
-        """The ``nth`` console line containing ``fragment``: (wall time read, line)."""
-        hits = [(t, line) for t, line in list(self.lines) if fragment in line]
-        return hits[nth - 1] if len(hits) >= nth else None
-
-    def output(self, last: int = 40) -> str:
-        return "\n".join(line for _, line in list(self.lines)[-last:])
-
-    def stop(self) -> int:
-        """SIGTERM (its own pid), as systemd would; SIGKILL after 10 s. Returns the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
-        return self.proc.returncode
-
-    def alog(self) -> list[Message]:
-        paths = sorted(self.log_dir.glob("*.alog"))
-        assert len(paths) == 1, f"expected one .alog in {self.log_dir}, found {paths}"
-        return read_alog(paths[0])
+TICK_LAUNCH = [sys.executable, "-c", TICK_LAUNCHER]
 
 
 def wait_for(op: RealOperator, comp: CompanionProcess | None, predicate, timeout_s: float,
@@ -424,7 +370,7 @@ def test_demo_mission_end_to_end(real_sitl, tmp_path) -> None:
     sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)        # opens once SERIAL0 has a client
-        comp = CompanionProcess(sitl.ports.serial1, tmp_path / "companion")
+        comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
             handing_wall, handing_boot = time.monotonic(), op.boot_ms
@@ -487,7 +433,8 @@ def test_manual_mid_mission_stops_actuation_within_one_tick(real_sitl, tmp_path)
     sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = CompanionProcess(sitl.ports.serial1, tmp_path / "companion", tick_marks=True)
+        comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion",
+                                launcher=TICK_LAUNCH)
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / sitl.speedup)
@@ -551,7 +498,7 @@ def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
         proxy = LinkProxy(sitl.ports.serial1)
-        comp = CompanionProcess(proxy.port, tmp_path / "companion", tick_marks=True)
+        comp = CompanionProcess(DEMO, proxy.port, tmp_path / "companion", launcher=TICK_LAUNCH)
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / sitl.speedup)
@@ -682,7 +629,7 @@ def test_companion_started_before_the_autopilot_waits_then_goes_online(real_sitl
                                                                        tmp_path) -> None:
     instance, lock = _free_instance()
     ports = instance_ports(instance)
-    comp = CompanionProcess(ports.serial1, tmp_path / "companion")
+    comp = CompanionProcess(DEMO, ports.serial1, tmp_path / "companion")
     try:
         deadline = time.monotonic() + EVENT_WALL_S
         while comp.find("waiting for the autopilot at") is None:

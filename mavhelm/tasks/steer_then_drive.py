@@ -29,7 +29,7 @@ from mavhelm.core.mission import Block
 from mavhelm.core.params import Number, Param, Point
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.waypoint import RADIUS
-from mavhelm.tasks.xypattern import Passes
+from mavhelm.tasks.xypattern import Passes, check_pattern
 
 TURN = "TURN"
 DRIVE = "DRIVE"
@@ -63,25 +63,7 @@ class SteerThenDriveXYPattern(Task):
     outer_yaw_limit: float
 
     def check(self, block: Block) -> None:
-        entries = block.all("Location")
-        if not entries:
-            raise block.error(f"{self.keyword} task {self.name} needs at least one Location "
-                              "(x,y, one line each)")
-        points = self.locations
-        if len(points) == 1 and self.repeat != 0:
-            raise (block.entry("Repeat") or block).error(
-                f"Repeat needs at least two Locations: task {self.name} has one, so a repeat "
-                "pass would not move")
-        pairs = [(i, i - 1) for i in range(1, len(points))]
-        if self.repeat != 0 and len(points) > 1:
-            pairs.append((0, len(points) - 1))
-        for i, j in pairs:
-            gap = math.hypot(points[i][0] - points[j][0], points[i][1] - points[j][1])
-            if gap < self.radius:
-                raise entries[i].error(
-                    f"Location {entries[i].value.strip()} is {gap:.3g} m from the one before it "
-                    f"(line {entries[j].line}), within Radius {self.radius:g} m: it would count "
-                    "as reached at once")
+        check_pattern(self, block)
         if not self.outer_yaw_limit > self.heading_tolerance:
             given = [e for e in (block.entry("OuterYawLimit"), block.entry("HeadingTolerance"))
                      if e is not None]

@@ -19,6 +19,7 @@ from typing import Any
 
 from mavhelm.core.mission import Block, Entry
 from mavhelm.core.params import Kind, Param, Point
+from mavhelm.tasks.base import Task
 from mavhelm.tasks.geometry import Point2
 from mavhelm.tasks.trackline import RouteTask
 from mavhelm.tasks.waypoint import RADIUS
@@ -51,6 +52,31 @@ class Passes(Kind):
         return int(x)
 
 
+def check_pattern(task: Task, block: Block) -> None:
+    """A waypoint pattern's Location lines: at least one; two or more to repeat; none within
+    Radius of the one before it (it would count as reached at once). Shared by the pattern
+    tasks (XYPattern, SteerThenDriveXYPattern)."""
+    entries = block.all("Location")
+    if not entries:
+        raise block.error(f"{task.keyword} task {task.name} needs at least one Location "
+                          "(x,y, one line each)")
+    points = [(p[0], p[1]) for p in task.locations]
+    if len(points) == 1 and task.repeat != 0:
+        raise (block.entry("Repeat") or block).error(
+            f"Repeat needs at least two Locations: task {task.name} has one, so a repeat "
+            "pass would not move")
+    pairs = list(zip(range(1, len(points)), range(len(points) - 1), strict=True))
+    if task.repeat != 0 and len(points) > 1:
+        pairs.append((0, len(points) - 1))
+    for i, j in pairs:
+        gap = math.hypot(points[i][0] - points[j][0], points[i][1] - points[j][1])
+        if gap < task.radius:
+            raise entries[i].error(
+                f"Location {entries[i].value.strip()} is {gap:.3g} m from the one before it "
+                f"(line {entries[j].line}), within Radius {task.radius:g} m: it would count "
+                "as reached at once")
+
+
 class XYPattern(RouteTask):
     keyword = "XYPattern"
     summary = ("flies its Locations in order as track lines, 1 + Repeat times; completes after "
@@ -68,25 +94,7 @@ class XYPattern(RouteTask):
     repeat: int | None
 
     def check(self, block: Block) -> None:
-        entries = block.all("Location")
-        if not entries:
-            raise block.error(f"XYPattern task {self.name} needs at least one Location "
-                              "(x,y, one line each)")
-        points = [(p[0], p[1]) for p in self.locations]
-        if len(points) == 1 and self.repeat != 0:
-            raise (block.entry("Repeat") or block).error(
-                f"Repeat needs at least two Locations: task {self.name} has one, so a repeat "
-                "pass would not move")
-        pairs = list(zip(range(1, len(points)), range(len(points) - 1), strict=True))
-        if self.repeat != 0 and len(points) > 1:
-            pairs.append((0, len(points) - 1))
-        for i, j in pairs:
-            gap = math.hypot(points[i][0] - points[j][0], points[i][1] - points[j][1])
-            if gap < self.radius:
-                raise entries[i].error(
-                    f"Location {entries[i].value.strip()} is {gap:.3g} m from the one before it "
-                    f"(line {entries[j].line}), within Radius {self.radius:g} m: it would count "
-                    "as reached at once")
+        check_pattern(self, block)
 
     def target(self, k: int) -> Point2 | None:
         n = len(self.locations)
