@@ -41,8 +41,9 @@ def test_the_builder_refuses_what_could_not_be_read_back():
 
 def guest_rig(*allow: str, leg_priority: str = "3") -> Rig:
     spec = Spec()
-    tasks = [spec.task("ConstantHeading", ("Name", "Leg"), ("Heading", "0"), ("Thrust", "50"),
-                       ("Priority", leg_priority), ("TimeOut", "NEVER")), *safety(spec)]
+    tasks = [spec.task("TrackLine", ("Name", "Leg"), ("P1", "0,-100"), ("P2", "0,1000"),
+                       ("Thrust", "50"), ("Priority", leg_priority), ("TimeOut", "NEVER")),
+             *safety(spec)]
     return Rig(tasks, spec, *(("Allow", a) for a in allow))
 
 
@@ -54,7 +55,7 @@ def ask(rig: Rig, text: str, **posts) -> tuple[str, list]:
     return str(one(out, "THIRDPARTY_REPLY")), out
 
 
-def test_a_priority_2_guest_takes_the_rudder_from_a_priority_3_line_and_gives_it_back():
+def test_a_priority_2_guest_takes_the_rudder_from_a_priority_3_track_line_and_gives_it_back():
     rig = guest_rig("Sample@iScience:GoToWayPoint | SessionTimeOut = 5")
     rig.tick(HELM_ONLINE=1.0, **NAV)
     rig.tick(**NAV)

@@ -33,6 +33,7 @@ SHOWN_AS: dict[str, Callable[[Message], str]] = {
     "REMOTE_FLAG": lambda m: f"flag {m.string} posted by the ground station",
     "THIRDPARTY_REPLY": lambda m: f"third party {m.string}",
     "HELM_GOAL": lambda m: m.string,
+    "TASK_EVENT": lambda m: f"task event {m.string}",
     "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
 }
 """Variables shown as they are posted, and how."""
@@ -53,6 +54,7 @@ GCS_SEVERITY: dict[str, int] = {
     "REMOTE_FLAG": SEVERITY_INFO,
     "THIRDPARTY_REPLY": SEVERITY_INFO,
     "HELM_GOAL": SEVERITY_INFO,
+    "TASK_EVENT": SEVERITY_WARNING,
     "TASK_STARTED": SEVERITY_INFO,
     "TASK_ENDED": SEVERITY_INFO,
 }

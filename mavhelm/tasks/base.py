@@ -211,7 +211,9 @@ class Task:
         self._outbox.append((name, value))
 
     def event(self, reason: str) -> None:
-        """Something happened that does not end the task: post the EventFlags."""
+        """Something happened that does not end the task: post the EventFlags, and say so
+        (``TASK_EVENT``, which the operator sees on the console and the ground station)."""
+        self.post("TASK_EVENT", f"{self.name}: {reason}")
         for flag in self.event_flags:
             self.post(flag, reason)
 
