@@ -144,7 +144,7 @@ def test_an_unknown_process_block_is_refused(tmp_path):
         Plan.from_mission(path, SimClock())
     line = len(DEMO) + 1
     assert str(err.value) == (f"{path}:{line}: unknown ProcessConfig = pHlem "
-                              "(known: iMAVLink, pNav, pHelm, pLogger)")
+                              "(known: iMAVLink, pNav, pHelm, pLogger, iSerial_<label>)")
 
 
 def test_a_setting_given_twice_is_refused_at_the_second(tmp_path):

@@ -7,6 +7,7 @@ tick is acted on, and actuation stopped, in that same tick.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,11 @@ from mavhelm.companion.alog import AlogLogger, log_dir
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.companion.serial_instruments import (
+    SerialInstrument,
+    instruments_from_mission,
+    is_instrument_block,
+)
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
@@ -34,8 +40,9 @@ def check_processes(mission: Mission) -> None:
     ignored, with every setting in it)."""
     known = {name.lower() for name in PROCESSES}
     for name, block in mission.processes.items():
-        if name.lower() not in known:
-            raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)})")
+        if name.lower() not in known and not is_instrument_block(name):
+            raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)}, "
+                              "iSerial_<label>)")
 
 
 def _entries(mission: Mission, process: str) -> list[tuple[str, str]]:
@@ -80,6 +87,7 @@ class Plan:
     helm: Helm
     link: BridgeConfig
     origin: Origin
+    instruments: list[SerialInstrument] = dataclasses.field(default_factory=list)
 
     @classmethod
     def from_mission(cls, mission: Mission | str | Path, clock: Clock, *,
@@ -92,6 +100,7 @@ class Plan:
         bus = Bus(clock)
         navigator = Navigator.from_mission(bus, mission)
         helm = Helm.from_mission(bus, mission)
+        instruments = instruments_from_mission(bus, mission, origin)
         link = BridgeConfig.from_block(mission.process("iMAVLink"), helm.gains.max_rudder)
         if connect is not None:
             try:
@@ -99,7 +108,13 @@ class Plan:
             except ValueError as exc:
                 raise MissionError("--connect", 0, str(exc)) from None
             link.connect = connect
-        return cls(mission, bus, navigator, helm, link, origin)
+        for instrument in instruments:
+            if os.path.realpath(instrument.config.port) == os.path.realpath(link.connect):
+                block = mission.process(instrument.config.process)
+                assert block is not None
+                raise block.require("Port").error(
+                    f"Port {instrument.config.port} is the autopilot's link (iMAVLink Connect)")
+        return cls(mission, bus, navigator, helm, link, origin, instruments)
 
 
 @dataclass
@@ -124,7 +139,7 @@ class Companion:
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
         bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
                                time_source=getattr(clock, "observe", None))
-        apps: list[App] = [bridge.input, navigator, helm, bridge.output]
+        apps: list[App] = [*plan.instruments, bridge.input, navigator, helm, bridge.output]
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
         apps.append(StatusConsole(bus, echo, statustext=bridge.send_statustext))
@@ -163,7 +178,7 @@ class Companion:
                             "of mavhelm run; the running link and navigator are kept", "pHelm")
         self.helm, self.mission = helm, plan.mission
         self.plan = Plan(plan.mission, self.bus, self.navigator, helm, self.plan.link,
-                         self.plan.origin)
+                         self.plan.origin, self.plan.instruments)
         self.bus.notify("HELM_RELOADED", f"{plan.mission.path}: {len(helm.tasks)} tasks",
                         "pHelm")
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from mavhelm.companion.alog import LOGGER_SCHEMA
 from mavhelm.companion.companion import PROCESSES
 from mavhelm.companion.mavlink_bridge import IMAVLINK_SCHEMA
+from mavhelm.companion.serial_instruments import INSTRUMENT_INTRO, INSTRUMENT_SCHEMA
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.params import Schema
 from mavhelm.nav.navigator import NAV_SCHEMA
@@ -48,6 +49,8 @@ def reference() -> str:
     ]
     for name, (schema, intro) in PROCESS_SCHEMAS.items():
         out.append(schema.reference(f"ProcessConfig = {name}", intro))
+    out.append(INSTRUMENT_SCHEMA.reference("ProcessConfig = iSerial_<label> (one per device)",
+                                           INSTRUMENT_INTRO))
     out.append(Schema("every task", BASE_PARAMS).reference(
         "Base properties of every task (spec Table 1)",
         "A task type may narrow one of these; its own table then shows it."))

@@ -1,0 +1,90 @@
+"""Serial instruments end to end: ``mavhelm sim --sensors`` serves a NMEA GPS and heading on
+pseudo-terminals, ``mavhelm run`` reads them through iSerial blocks, and pNav routes them into
+NAV_* ahead of the autopilot's own (spec 2.1), all as separate processes on the wall clock."""
+
+from __future__ import annotations
+
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from interop_helpers import SimProcess
+
+from mavhelm.companion.alog import read_alog
+
+pytestmark = pytest.mark.slow
+
+MISSION = """
+LatOrigin = 50.1
+LongOrigin = -4.2
+ProcessConfig = iMAVLink
+{{
+    Connect = tcp:127.0.0.1:{port}
+}}
+ProcessConfig = iSerial_GPS
+{{
+    Name = SGPS
+    Port = {gps}
+    Sentences = GGA,RMC
+}}
+ProcessConfig = iSerial_Compass
+{{
+    Name = HDG
+    Port = {heading}
+    Sentences = HDT
+}}
+ProcessConfig = pNav
+{{
+    X = SGPS @ 3, GPS @ 2
+    Y = SGPS @ 3, GPS @ 2
+    Heading = HDG @ 1, INS @ 1
+}}
+ProcessConfig = pHelm
+{{
+    Task = OverallTimeOut
+    {{
+        TimeOut = 600
+        FinishFlag = EndMission
+    }}
+    Task = EndMission
+    {{
+        StartFlag = EndMission
+    }}
+}}
+"""
+
+
+def test_serial_gps_and_heading_feed_nav_through_mavhelm_run(tmp_path):
+    with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
+        paths: dict[str, str] = {}
+        deadline = time.monotonic() + 10
+        while not {"nmea_gps", "heading"} <= set(paths):
+            line = sim.output.next_line(deadline - time.monotonic())
+            assert line is not None, sim.output.text()
+            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
+            if m:
+                paths[m.group(1)] = m.group(2)
+        mission = tmp_path / "serial.moos"
+        mission.write_text(MISSION.format(port=sim.ports[1], gps=paths["nmea_gps"],
+                                          heading=paths["heading"]))
+        logs = tmp_path / "logs"
+        proc = subprocess.Popen([sys.executable, "-m", "mavhelm.cli", "run", str(mission),
+                                 "--log-dir", str(logs)], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        try:
+            time.sleep(6.0)  # the GPS speaks at 1 Hz, the compass at 10 Hz
+        finally:
+            proc.send_signal(signal.SIGTERM)
+            out, _ = proc.communicate(timeout=30)
+        assert proc.returncode == 0, out
+    log = read_alog(next(logs.glob("*.alog")))
+    sources = {m.name: m.string for m in log if m.name.endswith("_SOURCE")}
+    assert sources["NAV_X_SOURCE"] == "SGPS" and sources["NAV_HEADING_SOURCE"] == "HDG"
+    x = [m.double for m in log if m.name == "NAV_X"]
+    heading = [m.double for m in log if m.name == "NAV_HEADING"]
+    assert len(x) >= 3 and all(abs(v) < 10.0 for v in x), "at home, within GPS noise"
+    assert len(heading) >= 20 and all(abs(h - 90.0) < 5.0 for h in heading)
+    assert any(m.name == "SGPS_X" and m.source.startswith("iSerial") for m in log)
