@@ -1,0 +1,685 @@
+"""pNav's extended Kalman filter for a surface vehicle (spec 2.2): pure logic, no I/O, no clock.
+
+State, in this order (indices are the ``I_*`` constants)::
+
+    X, Y          metres, local frame (X east, Y north)
+    H             yaw, radians, MOOS convention yaw = −heading (0 = north, counter-clockwise
+                  positive); the bow points along (−sin H, cos H)
+    Ẋ, Ẏ, Ḣ       earth-frame velocity (m/s) and yaw rate (rad/s)
+    [b]           hidden: heading bias of the orientation sensor (rad), if ``estimate_yaw_bias``
+    [s]           hidden: range scale error shared by all beacons, if ``estimate_range_scale``
+                  and there are beacons
+    [o_1 … o_n]   hidden: one range offset per beacon (m), in the order the beacons are given
+
+Model (spec 2.2.3): constant velocity in X, Y and H, uncoupled, driven by white acceleration
+whose strength is the spec's ``EKF_*_DYNAMICS`` setting 0–10 (see :class:`EKFConfig`); the
+hidden states are random walks (constant plus a slow drift).
+
+Observations (each carries its own time and its sensor's 1-σ noise, as a ``SENSOR_*`` line
+declares it):
+
+- :class:`Range` to a beacon at a known position: ``ρ = (1 + s) |p − beacon| + o_beacon``. The
+  offset and the scale are learned, so a turn-around delay or a wrong sound speed is estimated,
+  not tuned by hand. (Plaza's "+2.8 m offset" turns out to be ranges 6.7 % long: a scale, not
+  an offset. With offsets alone the filter scores 1.3 m RMS there, with the scale 0.46 m.)
+- :class:`BodyVelocity` (DVL, wheel odometry): forward speed ``u = −Ẋ sin H + Ẏ cos H``,
+  starboard speed ``v = Ẋ cos H + Ẏ sin H`` and yaw rate ``Ḣ``; any part may be absent. Wheel
+  odometry (distance and yaw change over an interval) is turned into one with :func:`odometry`:
+  speed = distance/interval, yaw rate = change/interval, and starboard speed 0 (a wheeled or
+  keeled hull does not crab; its noise is the sideslip allowed). Odometry is an *observation*
+  here, not a prediction input, because the spec's model is constant velocity and because
+  this is what couples heading and position (spec 2.2.3): with a position sensor it makes the
+  heading bias observable (spec 2.2.10).
+- :class:`Yaw` from an orientation sensor: ``z = H + b`` (b only when estimated).
+- :class:`Position` (GPS XY): ``z = (X, Y)``.
+
+Data rejection (spec 2.2.6): the observations of one time slice are tested together; each one
+first alone (χ² test of its own Mahalanobis distance), then the survivors jointly; when the
+joint test fails, the observation whose removal leaves the most consistent set is dropped and
+the test retried, so one bad range does not take good ones down with it.
+
+Safety (spec 2.2.11): a rate state beyond ``max_speed`` (10 m/s) or ``max_yaw_rate`` (π rad/s)
+is reset to zero with a warning; a position 1-σ beyond ``max_position_sigma`` raises
+:class:`NavigationFailure` and takes the filter off-line.
+
+What comes from filterpy: the filter *is* a :class:`filterpy.kalman.ExtendedKalmanFilter`
+(``self.kf``; ``x, P, F, Q, R`` are its arrays, its ``predict()`` propagates and its
+``update(z, HJacobian, Hx, R, residual=…)`` applies the Joseph-form correction), and the
+process noise blocks are those of :func:`filterpy.common.Q_continuous_white_noise` (written
+out, see :func:`white_noise_block`). What had to be written by hand, and why:
+
+- ``predict(dt)``: filterpy's ``predict()`` takes no time step; F and Q are rebuilt per ``dt``
+  here because observations arrive at irregular times.
+- χ² gating per observation and jointly, and finding the true outlier by dropping the worst
+  and retrying: filterpy only *reports* the Mahalanobis distance after an update has already
+  been applied (``mahalanobis``); gating must happen before.
+- State augmentation (heading bias, range scale, per-beacon offsets), angle wrapping of H and
+  of yaw residuals, rate-state resets, re-initialisation and the navigation-failure limit:
+  filterpy has no notion of them.
+
+Use from a navigator, each tick: ``advance(now − lag)``, ``update(observations of that slice)``
+(one call per time stamp), then ``forecast(now)`` for the ``EKF_*`` outputs; publish and clear
+``warnings``; catch :class:`NavigationFailure`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Final
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+from scipy.stats import chi2
+
+I_X: Final = 0
+I_Y: Final = 1
+I_H: Final = 2
+I_VX: Final = 3
+I_VY: Final = 4
+I_VH: Final = 5
+N_VEHICLE: Final = 6
+"""Indices of the vehicle states; the hidden states follow (see :class:`EKF`)."""
+
+# Full-scale process noise of the constant-velocity model: the spectral density of the white
+# acceleration at EKF_*_DYNAMICS = 10, scaled linearly with the setting (as the original
+# MOOSNavLib scales its acceleration variance with DYNAMICS/10). At the default 5 a vehicle's
+# speed may wander by ~0.7 m/s and its yaw rate by ~0.12 rad/s in one second of silence.
+FULL_SCALE_XY_ACCEL: Final = 1.0
+"""(m/s²)²/Hz at EKF_XY_DYNAMICS = 10."""
+FULL_SCALE_YAW_ACCEL: Final = 0.03
+"""(rad/s²)²/Hz at EKF_YAW_DYNAMICS = 10 (the original's heading full scale)."""
+
+# Default 1-σ sensor noise, used when an observation does not say (a SENSOR_* line's "~ noise").
+RANGE_SIGMA: Final = 1.0
+"""m: a radio or acoustic range after its offset is removed (Plaza: MAD 0.8 m)."""
+SPEED_SIGMA: Final = 0.05
+"""m/s: forward speed from wheel odometry or a DVL."""
+SIDESLIP_SIGMA: Final = 0.1
+"""m/s: starboard speed when it is the "does not crab" constraint of odometry."""
+YAW_RATE_SIGMA: Final = 0.02
+"""rad/s: yaw rate from odometry or a gyro."""
+YAW_SIGMA: Final = math.radians(2.0)
+"""rad: an orientation sensor (compass, AHRS) apart from its slowly drifting bias."""
+POSITION_SIGMA: Final = 3.0
+"""m: a GPS fix."""
+
+
+class NavigationFailure(Exception):
+    """The filter's uncertainty passed a configured limit (spec 2.2.11): it is off-line now,
+    and the navigator must declare a navigation failure (``NAVIGATION_FAILURE``, EndMission)."""
+
+
+@dataclass(frozen=True)
+class Beacon:
+    """A range beacon at a surveyed position. ``z`` is its height relative to the vehicle's
+    plane (negative below it), so ranges are slant ranges. ``offset`` is the prior of its range
+    offset (a known turn-around delay, in metres); the filter learns the rest."""
+
+    name: str
+    x: float
+    y: float
+    z: float = 0.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class EKFConfig:
+    """The filter's settings; names follow the pNav block's ``EKF_*`` keys.
+
+    - ``xy_dynamics``, ``yaw_dynamics`` (EKF_XY_DYNAMICS, EKF_YAW_DYNAMICS, 0–10): process
+      noise, spectral density = setting/10 × ``FULL_SCALE_*_ACCEL``. 0 = never changes.
+    - ``sigma_xy`` (m), ``sigma_yaw`` (rad): initial 1-σ of the start (EKF_SIGMA_XX/YY, _HH);
+      ``sigma_velocity`` (m/s) and ``sigma_yaw_rate`` (rad/s) those of the rate states, which
+      start at zero (spec 2.2.4).
+    - ``estimate_yaw_bias``: add the heading-bias state. Off unless asked for: spec 2.2.10 allows
+      it only with a body velocity sensor *and* a position sensor (ranges or GPS); without both
+      it is unobservable and only blurs the heading. ``sigma_yaw_bias`` is its initial 1-σ
+      (rad), ``yaw_bias_noise`` its random walk (EKF_YAW_BIAS_NOISE, rad/√s: 1e-3 lets it
+      follow a gyro-integrated heading drifting ~0.5°/min).
+    - ``estimate_range_scale``: add one range scale factor shared by every beacon (ranges =
+      (1 + s) × distance + offset): a wrong sound speed for acoustic LBL, a clock-rate error
+      for radio ranging. ``sigma_range_scale`` its initial 1-σ, ``range_scale_noise`` its random
+      walk (1/√s). Only when there are beacons.
+    - ``sigma_beacon_offset`` (m): initial 1-σ of every beacon's range offset, around the
+      beacon's own prior; ``beacon_offset_noise`` its random walk (m/√s).
+    - ``gate_probability``: χ² acceptance probability of the data rejection (0.999: a lone
+      observation is refused beyond 3.3 σ).
+    - ``max_speed`` (m/s), ``max_yaw_rate`` (rad/s): rate states beyond these are reset.
+    - ``max_position_sigma`` (m): larger 1-σ of the position is a navigation failure.
+    """
+
+    xy_dynamics: float = 5.0
+    yaw_dynamics: float = 5.0
+    sigma_xy: float = 30.0
+    sigma_yaw: float = math.pi / 2
+    sigma_velocity: float = 2.0
+    sigma_yaw_rate: float = 0.5
+    estimate_yaw_bias: bool = False
+    sigma_yaw_bias: float = math.radians(10.0)
+    yaw_bias_noise: float = 1e-3
+    estimate_range_scale: bool = True
+    sigma_range_scale: float = 0.1
+    range_scale_noise: float = 1e-5
+    sigma_beacon_offset: float = 5.0
+    beacon_offset_noise: float = 1e-3
+    gate_probability: float = 0.999
+    max_speed: float = 10.0
+    max_yaw_rate: float = math.pi
+    max_position_sigma: float = 100.0
+
+    def __post_init__(self) -> None:
+        for name in ("xy_dynamics", "yaw_dynamics"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 10.0:
+                raise ValueError(f"{name} must be in [0, 10], got {value}")
+        for name in ("sigma_xy", "sigma_yaw", "sigma_velocity", "sigma_yaw_rate",
+                     "sigma_yaw_bias", "sigma_range_scale", "sigma_beacon_offset", "max_speed",
+                     "max_yaw_rate", "max_position_sigma"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        for name in ("yaw_bias_noise", "range_scale_noise", "beacon_offset_noise"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be >= 0, got {value}")
+        if not 0.5 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0.5, 1), got {self.gate_probability}")
+
+
+# ----------------------------------------------------------------------------- observations
+
+
+@dataclass(frozen=True)
+class Range:
+    """A range (m) to ``beacon`` heard at time ``t``."""
+
+    t: float
+    beacon: str
+    z: float
+    sigma: float = RANGE_SIGMA
+
+
+@dataclass(frozen=True)
+class BodyVelocity:
+    """Body-frame velocity at ``t``: ``forward`` and ``starboard`` speed (m/s) and ``yaw_rate``
+    (rad/s, counter-clockwise positive like yaw); None for a part the sensor does not give."""
+
+    t: float
+    forward: float | None = None
+    starboard: float | None = None
+    yaw_rate: float | None = None
+    sigma_forward: float = SPEED_SIGMA
+    sigma_starboard: float = SIDESLIP_SIGMA
+    sigma_yaw_rate: float = YAW_RATE_SIGMA
+
+
+@dataclass(frozen=True)
+class Yaw:
+    """Yaw (rad, yaw = −heading) from an orientation sensor at ``t``."""
+
+    t: float
+    z: float
+    sigma: float = YAW_SIGMA
+
+
+@dataclass(frozen=True)
+class Position:
+    """An XY fix (m, local frame) at ``t``, e.g. GPS."""
+
+    t: float
+    x: float
+    y: float
+    sigma: float = POSITION_SIGMA
+
+
+Observation = Range | BodyVelocity | Yaw | Position
+
+
+def odometry(t: float, interval: float, distance: float, dyaw: float, *,
+             sigma_forward: float = SPEED_SIGMA, sigma_starboard: float = SIDESLIP_SIGMA,
+             sigma_yaw_rate: float = YAW_RATE_SIGMA) -> BodyVelocity:
+    """Odometry increments over ``interval`` seconds ending at ``t`` (distance travelled, yaw
+    change) as the mean body velocity of the interval, with the no-crabbing constraint."""
+    if not interval > 0:
+        raise ValueError(f"odometry interval must be > 0 s, got {interval}")
+    return BodyVelocity(t, distance / interval, 0.0, dyaw / interval,
+                        sigma_forward, sigma_starboard, sigma_yaw_rate)
+
+
+def white_noise_block(dt: float) -> tuple[float, float, float, float]:
+    """The (position, rate) block of continuous white-noise acceleration of unit spectral
+    density over ``dt``, flattened: filterpy's ``Q_continuous_white_noise(2, dt, 1)``, written
+    out because it is needed every prediction and filterpy assembles it with scipy's
+    ``block_diag``, which costs more than the rest of the prediction."""
+    return (dt**3 / 3.0, dt**2 / 2.0, dt**2 / 2.0, dt)
+
+
+def wrap_angle(a: float) -> float:
+    """An angle in [−π, π)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ----------------------------------------------------------------------------- the filter
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What the filter believes at ``t``: the NAV_* family's sources (EKF_X, EKF_YAW, …)."""
+
+    t: float
+    x: float
+    y: float
+    yaw: float
+    x_vel: float
+    y_vel: float
+    yaw_vel: float
+    sigma_x: float
+    sigma_y: float
+    sigma_yaw: float
+    yaw_bias: float
+    range_scale: float
+    offsets: dict[str, float]
+
+    @property
+    def speed(self) -> float:
+        return math.hypot(self.x_vel, self.y_vel)
+
+    @property
+    def heading(self) -> float:
+        """Compass heading, degrees clockwise from north, in [0, 360)."""
+        return (-math.degrees(self.yaw)) % 360.0
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The fate of one observation in an update: its squared Mahalanobis distance against the
+    prior, its degrees of freedom, and whether it was used."""
+
+    obs: Observation
+    d2: float
+    dof: int
+    accepted: bool
+
+
+@dataclass
+class UpdateResult:
+    """What ``update`` did with each observation it was given, in order."""
+
+    verdicts: list[Verdict] = field(default_factory=list)
+
+    @property
+    def accepted(self) -> list[Observation]:
+        return [v.obs for v in self.verdicts if v.accepted]
+
+    @property
+    def rejected(self) -> list[Observation]:
+        return [v.obs for v in self.verdicts if not v.accepted]
+
+
+@dataclass
+class _Rows:
+    """One observation linearised: measurement, prediction, Jacobian, noise, angle rows."""
+
+    z: np.ndarray
+    hx: np.ndarray
+    H: np.ndarray
+    r: np.ndarray
+    angular: np.ndarray
+
+
+class EKF:
+    """The pNav EKF. Build it with a start pose, then per tick: ``advance(t)`` (or
+    ``predict(dt)``), ``update(observations)``, read ``estimate()``.
+
+    ``x`` and ``P`` are filterpy's column-vector state and covariance; ``F`` and ``Q`` the last
+    prediction's matrices. Beacons are fixed at construction; their offsets are states
+    ``offset_index(name)``. Warnings (rate resets) accumulate in ``warnings`` for the owner to
+    publish and clear.
+    """
+
+    def __init__(self, t: float, x: float, y: float, yaw: float = 0.0, *,
+                 beacons: Iterable[Beacon] = (), config: EKFConfig | None = None,
+                 sigma_xy: float | None = None, sigma_yaw: float | None = None) -> None:
+        self.config = cfg = config or EKFConfig()
+        self.beacons: dict[str, Beacon] = {}
+        for beacon in beacons:
+            if beacon.name in self.beacons:
+                raise ValueError(f"beacon {beacon.name} is declared twice")
+            self.beacons[beacon.name] = beacon
+        self.i_bias: int | None = N_VEHICLE if cfg.estimate_yaw_bias else None
+        n = N_VEHICLE + (1 if cfg.estimate_yaw_bias else 0)
+        self.i_scale: int | None = n if cfg.estimate_range_scale and self.beacons else None
+        first_offset = n + (1 if self.i_scale is not None else 0)
+        self._offset_index = {name: first_offset + k for k, name in enumerate(self.beacons)}
+        self.dim = first_offset + len(self.beacons)
+        self.kf = ExtendedKalmanFilter(dim_x=self.dim, dim_z=1)
+        self.t = float(t)
+        self.warnings: list[str] = []
+        self.failure: NavigationFailure | None = None
+        self.rate_resets = 0
+        self._gates: dict[int, float] = {}
+        self.kf.F = np.eye(self.dim)
+        self.kf.Q = np.zeros((self.dim, self.dim))
+        self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
+
+    def _initialise(self, x: float, y: float, yaw: float, sigma_xy: float | None,
+                    sigma_yaw: float | None) -> None:
+        """Every state to its prior (spec 2.2.4): the pose given, rates zero, hidden states at
+        the beacons' priors, all uncorrelated."""
+        cfg = self.config
+        sxy = cfg.sigma_xy if sigma_xy is None else sigma_xy
+        syaw = cfg.sigma_yaw if sigma_yaw is None else sigma_yaw
+        state = np.zeros(self.dim)
+        state[[I_X, I_Y, I_H]] = x, y, wrap_angle(yaw)
+        var = np.zeros(self.dim)
+        var[[I_X, I_Y]] = sxy**2
+        var[I_H] = syaw**2
+        var[[I_VX, I_VY]] = cfg.sigma_velocity**2
+        var[I_VH] = cfg.sigma_yaw_rate**2
+        if self.i_bias is not None:
+            var[self.i_bias] = cfg.sigma_yaw_bias**2
+        if self.i_scale is not None:
+            var[self.i_scale] = cfg.sigma_range_scale**2
+        for name, i in self._offset_index.items():
+            state[i] = self.beacons[name].offset
+            var[i] = cfg.sigma_beacon_offset**2
+        self.kf.x = state.reshape(-1, 1)
+        self.kf.P = np.diag(var)
+
+    # textbook names, backed by filterpy's arrays
+    @property
+    def x(self) -> np.ndarray:
+        return self.kf.x
+
+    @property
+    def P(self) -> np.ndarray:  # noqa: N802 - textbook name
+        return self.kf.P
+
+    @property
+    def F(self) -> np.ndarray:  # noqa: N802
+        return self.kf.F
+
+    @property
+    def Q(self) -> np.ndarray:  # noqa: N802
+        return self.kf.Q
+
+    @property
+    def R(self) -> np.ndarray:  # noqa: N802
+        """The noise of the last update's accepted rows."""
+        return self.kf.R
+
+    @property
+    def mahalanobis(self) -> float:
+        """Mahalanobis distance of the last applied update's innovation (as filterpy's)."""
+        return float(self.kf.mahalanobis)
+
+    @property
+    def online(self) -> bool:
+        return self.failure is None
+
+    def offset_index(self, beacon: str) -> int:
+        return self._offset_index[beacon]
+
+    # ------------------------------------------------------------------ prediction
+
+    def advance(self, t: float) -> None:
+        """Predict to time ``t`` (no-op if ``t`` is not later than the filter's time)."""
+        if t > self.t:
+            self.predict(t - self.t)
+
+    def predict(self, dt: float) -> None:
+        """Constant-velocity prediction over ``dt`` seconds."""
+        self._require_online()
+        if not (math.isfinite(dt) and dt >= 0):
+            raise ValueError(f"predict needs dt >= 0 s, got {dt}")
+        cfg = self.config
+        F = np.eye(self.dim)
+        F[I_X, I_VX] = F[I_Y, I_VY] = F[I_H, I_VH] = dt
+        Q = np.zeros((self.dim, self.dim))
+        q_xy = cfg.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        q_yaw = cfg.yaw_dynamics / 10.0 * FULL_SCALE_YAW_ACCEL
+        if dt > 0:
+            pp, pv, _, vv = white_noise_block(dt)
+            for (p, v), q in (((I_X, I_VX), q_xy), ((I_Y, I_VY), q_xy), ((I_H, I_VH), q_yaw)):
+                Q[p, p], Q[p, v], Q[v, p], Q[v, v] = q * pp, q * pv, q * pv, q * vv
+            if self.i_bias is not None:
+                Q[self.i_bias, self.i_bias] = cfg.yaw_bias_noise**2 * dt
+            if self.i_scale is not None:
+                Q[self.i_scale, self.i_scale] = cfg.range_scale_noise**2 * dt
+            for i in self._offset_index.values():
+                Q[i, i] = cfg.beacon_offset_noise**2 * dt
+        self.kf.F = F
+        self.kf.Q = Q
+        self.kf.predict()
+        self.t += dt
+        self._tidy()
+
+    # ------------------------------------------------------------------ update
+
+    def update(self, z: Observation | Sequence[Observation]) -> UpdateResult:
+        """Gate and apply one observation or the observations of one time slice (taken to be
+        at the filter's time: ``advance`` to them first). Returns each one's verdict."""
+        self._require_online()
+        observations = [z] if not isinstance(z, Sequence) else list(z)
+        if not observations:
+            return UpdateResult()
+        parts = [self._linearise(obs) for obs in observations]
+        rows = _stack(parts)
+        first = np.cumsum([0] + [len(p.z) for p in parts])
+        y = self._residual(rows)
+        S = rows.H @ self.kf.P @ rows.H.T + np.diag(rows.r)
+
+        def rows_of(which: list[int]) -> np.ndarray:
+            return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
+
+        def d2_of(which: list[int]) -> tuple[float, int]:
+            if len(which) == 1 and first[which[0] + 1] - first[which[0]] == 1:
+                i = first[which[0]]
+                return float(y[i] * y[i] / S[i, i]), 1
+            idx = rows_of(which)
+            yi = y[idx]
+            return float(yi @ np.linalg.solve(S[np.ix_(idx, idx)], yi)), len(idx)
+
+        d2 = [d2_of([k]) for k in range(len(parts))]
+        alive = [k for k, (d, dof) in enumerate(d2) if d <= self._gate(dof)]
+        while len(alive) > 1:
+            joint, dof = d2_of(alive)
+            if joint <= self._gate(dof):
+                break
+            # drop the observation whose absence leaves the most consistent set: the largest
+            # χ² tail probability (in logs, which do not saturate as the CDF does)
+            def leave_out(k: int, keep: list[int] = alive) -> float:
+                return float(chi2.logsf(*d2_of([j for j in keep if j != k])))
+
+            alive.remove(max(alive, key=leave_out))
+        if alive:
+            self._apply(rows if len(alive) == len(parts) else _select(rows, rows_of(alive)))
+        keep = set(alive)
+        return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in keep)
+                             for k, obs in enumerate(observations)])
+
+    def _gate(self, dof: int) -> float:
+        gate = self._gates.get(dof)
+        if gate is None:
+            gate = self._gates[dof] = float(chi2.ppf(self.config.gate_probability, dof))
+        return gate
+
+    @staticmethod
+    def _residual(row: _Rows) -> np.ndarray:
+        y = row.z - row.hx
+        if row.angular.any():
+            y[row.angular] = (y[row.angular] + np.pi) % (2 * np.pi) - np.pi
+        return y
+
+    def _apply(self, stacked: _Rows) -> None:
+        angular = stacked.angular
+
+        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            y = a - b
+            y[angular, 0] = (y[angular, 0] + np.pi) % (2 * np.pi) - np.pi
+            return y
+
+        R = np.diag(stacked.r)
+        self.kf.dim_z = len(stacked.z)
+        self.kf.R = R
+        self.kf.update(stacked.z.reshape(-1, 1), lambda _x: stacked.H,
+                       lambda _x: stacked.hx.reshape(-1, 1), R=R, residual=residual)
+        self._tidy()
+
+    def _linearise(self, obs: Observation) -> _Rows:
+        x = self.kf.x[:, 0]
+        n = self.dim
+        if isinstance(obs, Range):
+            if obs.beacon not in self.beacons:
+                raise KeyError(f"range to unknown beacon {obs.beacon!r}")
+            b = self.beacons[obs.beacon]
+            i = self._offset_index[obs.beacon]
+            dx, dy = x[I_X] - b.x, x[I_Y] - b.y
+            d = math.sqrt(dx * dx + dy * dy + b.z * b.z)
+            d = max(d, 1e-6)
+            k = 1.0
+            H = np.zeros((1, n))
+            if self.i_scale is not None:
+                k += x[self.i_scale]
+                H[0, self.i_scale] = d
+            H[0, I_X], H[0, I_Y], H[0, i] = k * dx / d, k * dy / d, 1.0
+            return _Rows(np.array([obs.z]), np.array([k * d + x[i]]), H,
+                         np.array([obs.sigma**2]), np.array([False]))
+        if isinstance(obs, BodyVelocity):
+            s, c = math.sin(x[I_H]), math.cos(x[I_H])
+            vx, vy = x[I_VX], x[I_VY]
+            u = -vx * s + vy * c
+            v = vx * c + vy * s
+            zs, hs, Hs, rs = [], [], [], []
+            if obs.forward is not None:
+                h = np.zeros(n)
+                h[I_VX], h[I_VY], h[I_H] = -s, c, -v
+                zs.append(obs.forward), hs.append(u), Hs.append(h)
+                rs.append(obs.sigma_forward**2)
+            if obs.starboard is not None:
+                h = np.zeros(n)
+                h[I_VX], h[I_VY], h[I_H] = c, s, u
+                zs.append(obs.starboard), hs.append(v), Hs.append(h)
+                rs.append(obs.sigma_starboard**2)
+            if obs.yaw_rate is not None:
+                h = np.zeros(n)
+                h[I_VH] = 1.0
+                zs.append(obs.yaw_rate), hs.append(x[I_VH]), Hs.append(h)
+                rs.append(obs.sigma_yaw_rate**2)
+            if not zs:
+                raise ValueError("a BodyVelocity observation with no part")
+            return _Rows(np.array(zs), np.array(hs), np.array(Hs), np.array(rs),
+                         np.zeros(len(zs), dtype=bool))
+        if isinstance(obs, Yaw):
+            H = np.zeros((1, n))
+            H[0, I_H] = 1.0
+            predicted = x[I_H]
+            if self.i_bias is not None:
+                H[0, self.i_bias] = 1.0
+                predicted += x[self.i_bias]
+            return _Rows(np.array([obs.z]), np.array([predicted]), H,
+                         np.array([obs.sigma**2]), np.array([True]))
+        if isinstance(obs, Position):
+            H = np.zeros((2, n))
+            H[0, I_X] = H[1, I_Y] = 1.0
+            return _Rows(np.array([obs.x, obs.y]), x[[I_X, I_Y]].copy(), H,
+                         np.array([obs.sigma**2] * 2), np.array([False, False]))
+        raise TypeError(f"not an observation: {obs!r}")
+
+    # ------------------------------------------------------------------ housekeeping
+
+    def reinitialise(self, x: float, y: float, sigma_xy: float, yaw: float | None = None,
+                     sigma_yaw: float | None = None) -> None:
+        """Start again from a fix, e.g. the LSQ's after a divergence (spec 2.2.9): every state
+        back to its prior, hidden ones included, since a diverged filter will have pushed its
+        misfit into them too (offsets, scale and heading bias that "explain" a wrong position).
+        Yaw defaults to the current estimate, with the configured start uncertainty."""
+        if yaw is None:
+            yaw = float(self.kf.x[I_H, 0] + (self.kf.x[self.i_bias, 0]
+                                             if self.i_bias is not None else 0.0))
+        self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
+        self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
+
+    def _reset_states(self, idx: tuple[int, ...], values: tuple[float, ...],
+                      variance: float) -> None:
+        x, P = self.kf.x, self.kf.P
+        for i, value in zip(idx, values, strict=True):
+            x[i, 0] = value
+            P[i, :] = 0.0
+            P[:, i] = 0.0
+            P[i, i] = variance
+
+    def _tidy(self) -> None:
+        """Wrap yaw, keep P symmetric, reset silly rates, check the uncertainty limit."""
+        x, cfg = self.kf.x, self.config
+        x[I_H, 0] = wrap_angle(float(x[I_H, 0]))
+        if self.i_bias is not None:
+            x[self.i_bias, 0] = wrap_angle(float(x[self.i_bias, 0]))
+        self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
+        speed = math.hypot(x[I_VX, 0], x[I_VY, 0])
+        if not speed <= cfg.max_speed:
+            self._reset_states((I_VX, I_VY), (0.0, 0.0), cfg.sigma_velocity**2)
+            self.rate_resets += 1
+            self.warnings.append(f"EKF speed {speed:.1f} m/s exceeds {cfg.max_speed:g} m/s: "
+                                 "velocity states reset to zero")
+        yaw_rate = float(x[I_VH, 0])
+        if not abs(yaw_rate) <= cfg.max_yaw_rate:
+            self._reset_states((I_VH,), (0.0,), cfg.sigma_yaw_rate**2)
+            self.rate_resets += 1
+            self.warnings.append(f"EKF yaw rate {yaw_rate:.2f} rad/s exceeds "
+                                 f"{cfg.max_yaw_rate:.2f} rad/s: yaw rate state reset to zero")
+        sigma = self.position_sigma()
+        if not sigma <= cfg.max_position_sigma:
+            self.failure = NavigationFailure(
+                f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
+                f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
+            raise self.failure
+
+    def _require_online(self) -> None:
+        if self.failure is not None:
+            raise self.failure
+
+    def position_sigma(self) -> float:
+        """The larger 1-σ of the position (square root of P's top eigenvalue for X, Y)."""
+        P = self.kf.P
+        half_sum, half_diff = (P[0, 0] + P[1, 1]) / 2, (P[0, 0] - P[1, 1]) / 2
+        return math.sqrt(max(half_sum + math.hypot(half_diff, P[0, 1]), 0.0))
+
+    def estimate(self) -> Estimate:
+        return self._estimate(self.t, self.kf.x[:, 0])
+
+    def forecast(self, t: float) -> Estimate:
+        """The estimate predicted forward to ``t`` without changing the filter (the spec's
+        ``EKF_LAG``: the filter runs behind time, control needs now)."""
+        x = self.kf.x[:, 0].copy()
+        dt = max(t - self.t, 0.0)
+        x[I_X] += dt * x[I_VX]
+        x[I_Y] += dt * x[I_VY]
+        x[I_H] = wrap_angle(x[I_H] + dt * x[I_VH])
+        return self._estimate(t, x)
+
+    def _estimate(self, t: float, x: np.ndarray) -> Estimate:
+        P = self.kf.P
+        return Estimate(
+            t=t, x=float(x[I_X]), y=float(x[I_Y]), yaw=float(x[I_H]),
+            x_vel=float(x[I_VX]), y_vel=float(x[I_VY]), yaw_vel=float(x[I_VH]),
+            sigma_x=math.sqrt(P[I_X, I_X]), sigma_y=math.sqrt(P[I_Y, I_Y]),
+            sigma_yaw=math.sqrt(P[I_H, I_H]),
+            yaw_bias=float(x[self.i_bias]) if self.i_bias is not None else 0.0,
+            range_scale=float(x[self.i_scale]) if self.i_scale is not None else 0.0,
+            offsets={name: float(x[i]) for name, i in self._offset_index.items()},
+        )
+
+
+def _select(rows: _Rows, idx: np.ndarray) -> _Rows:
+    return _Rows(rows.z[idx], rows.hx[idx], rows.H[idx], rows.r[idx], rows.angular[idx])
+
+
+def _stack(rows: list[_Rows]) -> _Rows:
+    if len(rows) == 1:
+        return rows[0]
+    return _Rows(np.concatenate([r.z for r in rows]), np.concatenate([r.hx for r in rows]),
+                 np.vstack([r.H for r in rows]), np.concatenate([r.r for r in rows]),
+                 np.concatenate([r.angular for r in rows]))

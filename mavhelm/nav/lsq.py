@@ -1,0 +1,251 @@
+"""pNav's least-squares position fix from beacon ranges (spec 2.2): pure logic, no clock.
+
+The LSQ filter has no memory of earlier fixes and no vehicle model: it accrues ranges over a
+short window until the position is observable (ranges to at least ``min_beacons`` different
+beacons), solves by Gauss–Newton (Newton–Raphson on the linearised range equations, with step
+halving), publishes the fix and starts again from scratch. Being memory-less it cannot diverge,
+which is why it boots the EKF when the start is known only roughly and watches it afterwards
+(spec 2.2.9): :class:`DivergenceMonitor` counts fixes that disagree with the EKF by more than
+20 m and asks for a re-initialisation after 6 in a row.
+
+Data rejection (spec 2.2.6): a solution whose weighted residuals fail a χ² test (with n − 2
+degrees of freedom, n − 3 with the offset) has its worst range dropped and is solved again
+while enough beacons remain; the range dropped is the one whose absence leaves the most
+consistent fix (not merely the largest residual, which a bad range can hide). With little
+redundancy (three ranges to three beacons: one degree of freedom) a bad range can still be
+absorbed into a wrong fix, which is why the EKF is booted only on a repeatable stream of fixes
+(see :mod:`mavhelm.nav.replay`).
+
+Optional hidden state: with ``estimate_offset`` and ranges to one beacon more than needed, a
+common range offset (a turn-around delay shared by the net) is solved for as well, as the
+original's five-state LSQ solves for tide; the fix then says what it found (``offset``).
+
+The vehicle is taken to be still during the window (spec 2.2.2: the LSQ uses a static model):
+keep ``window`` a few seconds, so a moving vehicle's fix is smeared by at most speed × window.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from mavhelm.nav.ekf import Beacon, Range
+
+DIVERGENCE_DISTANCE = 20.0
+"""m: an LSQ fix further than this from the EKF is a disagreement (spec 2.2.9)."""
+DIVERGENCE_COUNT = 6
+"""Disagreements in a row before the EKF is re-initialised to the LSQ (the original's 6)."""
+
+
+@dataclass(frozen=True)
+class Fix:
+    """An LSQ position: ``t`` is the newest range's time, ``sigma`` the larger 1-σ of the
+    position (from the normal equations and the ranges' noise), ``rms`` the residual RMS (m),
+    ``chi2`` the sum of squared weighted residuals and ``dof`` its degrees of freedom,
+    ``offset`` the common range offset solved for (0 when not estimated)."""
+
+    t: float
+    x: float
+    y: float
+    sigma: float
+    rms: float
+    n: int
+    beacons: tuple[str, ...]
+    offset: float = 0.0
+    chi2: float = 0.0
+    dof: int = 0
+
+
+def solve(ranges: Sequence[Range], beacons: dict[str, Beacon], *,
+          guess: tuple[float, float] | None = None, estimate_offset: bool = False,
+          max_iterations: int = 25, tolerance: float = 1e-4) -> Fix | None:
+    """Gauss–Newton fix from ``ranges`` (each corrected by its beacon's prior offset); None if
+    unobservable (fewer than 3 beacons, or 4 with ``estimate_offset``) or not converging.
+
+    The iteration starts from ``guess``; without one, from the beacons' centroid and then six
+    points around the net until a solution fits the ranges within 3 σ each, keeping the
+    lowest-residual one, so the mirror solution of a poor geometry is not taken by accident.
+    """
+    names = sorted({r.beacon for r in ranges})
+    need = 4 if estimate_offset else 3
+    if len(names) < need:
+        return None
+    bx = np.array([beacons[r.beacon].x for r in ranges])
+    by = np.array([beacons[r.beacon].y for r in ranges])
+    bz = np.array([beacons[r.beacon].z for r in ranges])
+    z = np.array([r.z - beacons[r.beacon].offset for r in ranges])
+    w = np.array([1.0 / max(r.sigma, 1e-6) for r in ranges])
+    cx, cy = float(np.mean([beacons[n].x for n in names])), float(np.mean(
+        [beacons[n].y for n in names]))
+    spread = max(float(np.max(np.hypot(bx - cx, by - cy))), 1.0)
+    if guess is not None:
+        starts = [guess]
+    else:
+        starts = [(cx, cy)] + [(cx + spread * math.cos(a), cy + spread * math.sin(a))
+                               for a in np.linspace(0, 2 * math.pi, 6, endpoint=False)]
+    good_enough = 9.0 * len(ranges)  # within 3 σ per range: stop trying other starts
+    best: tuple[float, np.ndarray, np.ndarray] | None = None
+    for start in starts:
+        p = np.array([start[0], start[1], 0.0])
+        cost = _cost(p, bx, by, bz, z, w)
+        for _ in range(max_iterations):
+            dx, dy = p[0] - bx, p[1] - by
+            d = np.maximum(np.sqrt(dx * dx + dy * dy + bz * bz), 1e-6)
+            J = np.column_stack([dx / d, dy / d, np.ones_like(d)])
+            if not estimate_offset:
+                J = J[:, :2]
+            r = z - (d + p[2])
+            try:
+                step = np.linalg.lstsq(J * w[:, None], r * w, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                break
+            if not estimate_offset:
+                step = np.append(step, 0.0)
+            scale = 1.0
+            while scale > 1e-3:
+                trial = p + scale * step
+                trial_cost = _cost(trial, bx, by, bz, z, w)
+                if trial_cost <= cost:
+                    break
+                scale *= 0.5
+            else:
+                break
+            p, cost = trial, trial_cost
+            if np.linalg.norm(scale * step) < tolerance:
+                break
+        same = best is not None and np.hypot(*(p[:2] - best[1][:2])) < 0.1
+        if best is None or cost < best[0]:
+            best = (cost, p, J)
+        if best[0] <= good_enough or same:
+            break  # a good fit, or the same minimum found from two starts
+    if best is None:
+        return None
+    cost, p, _ = best
+    dx, dy = p[0] - bx, p[1] - by
+    d = np.maximum(np.sqrt(dx * dx + dy * dy + bz * bz), 1e-6)
+    J = np.column_stack([dx / d, dy / d, np.ones_like(d)])[:, : 3 if estimate_offset else 2]
+    normal = (J * w[:, None] ** 2).T @ J
+    if np.linalg.cond(normal) > 1e8:
+        return None
+    cov = np.linalg.inv(normal)
+    sigma = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2])[-1]), 0.0))
+    residual = z - (d + p[2])
+    return Fix(t=max(r.t for r in ranges), x=float(p[0]), y=float(p[1]), sigma=sigma,
+               rms=float(np.sqrt(np.mean(residual**2))), n=len(ranges), beacons=tuple(names),
+               offset=float(p[2]), chi2=float(np.sum((w * residual) ** 2)),
+               dof=len(ranges) - (3 if estimate_offset else 2))
+
+
+def _cost(p: np.ndarray, bx: np.ndarray, by: np.ndarray, bz: np.ndarray, z: np.ndarray,
+          w: np.ndarray) -> float:
+    d = np.sqrt((p[0] - bx) ** 2 + (p[1] - by) ** 2 + bz**2)
+    return float(np.sum((w * (z - d - p[2])) ** 2))
+
+
+class LSQ:
+    """Accrues ranges and publishes a :class:`Fix` whenever the window holds enough beacons.
+
+    ``add(range)`` returns the new fix or None. Once the window holds ranges to
+    ``min_beacons`` beacons a solution is tried, and the window starts afresh whether it
+    succeeds or not (``failures`` counts the inconsistent windows, ``rejected`` the ranges
+    dropped). ``window`` (s): ranges older than this, counted back from the newest, are
+    forgotten. ``gate_probability``: the χ² test a solution's residuals must pass; if they
+    fail, the worst range is dropped and the fix tried again, at most ``max_drops`` times (more
+    bad ranges than that in one window: no fix).
+    """
+
+    def __init__(self, beacons: Iterable[Beacon], *, window: float = 5.0, min_beacons: int = 3,
+                 gate_probability: float = 0.999, max_drops: int = 2,
+                 estimate_offset: bool = False) -> None:
+        self.beacons = {b.name: b for b in beacons}
+        if window <= 0:
+            raise ValueError(f"LSQ window must be > 0 s, got {window}")
+        self.window = window
+        # beacons a fix needs at the least: a bad range may be dropped down to this many
+        self.observable = 4 if estimate_offset else 3
+        self.min_beacons = max(min_beacons, self.observable)
+        self.gate_probability = gate_probability
+        self.max_drops = max_drops
+        self.estimate_offset = estimate_offset
+        self._ranges: deque[Range] = deque()
+        self.last_fix: Fix | None = None
+        self.rejected = 0
+        self.failures = 0
+
+    def add(self, obs: Range) -> Fix | None:
+        if obs.beacon not in self.beacons or not math.isfinite(obs.z):
+            return None
+        self._ranges.append(obs)
+        while self._ranges and obs.t - self._ranges[0].t > self.window:
+            self._ranges.popleft()
+        if len({r.beacon for r in self._ranges}) < self.min_beacons:
+            return None
+        ranges = list(self._ranges)
+        last = self.last_fix
+        recent = last is not None and obs.t - last.t <= 10 * self.window
+        guess = (last.x, last.y) if last is not None and recent else None
+        fix = self._solve(ranges, guess)
+        drops = 0
+        while fix is not None and not self._consistent(fix):
+            if drops == self.max_drops:
+                fix = None
+                break
+            # drop the range whose absence leaves the most consistent fix, and try again
+            trials = []
+            for k in range(len(ranges)):
+                rest = ranges[:k] + ranges[k + 1:]
+                if len({r.beacon for r in rest}) >= self.observable:
+                    trial = self._solve(rest, (fix.x, fix.y))
+                    if trial is not None:
+                        trials.append((self._surprise(trial), k, trial))
+            if not trials:
+                fix = None
+                break
+            _, k, fix = min(trials, key=lambda item: item[:2])
+            ranges.pop(k)
+            drops += 1
+            self.rejected += 1
+        self._ranges.clear()  # fix or no fix, the accumulation begins again
+        if fix is None:
+            self.failures += 1
+            return None
+        self.last_fix = fix
+        return fix
+
+    def _solve(self, ranges: list[Range], guess: tuple[float, float] | None) -> Fix | None:
+        return solve(ranges, self.beacons, guess=guess, estimate_offset=self.estimate_offset)
+
+    @staticmethod
+    def _surprise(fix: Fix) -> float:
+        """How surprising the fix's residuals are: −log of the χ² tail probability (which,
+        unlike the CDF, does not saturate for grossly bad fits)."""
+        return -float(chi2.logsf(fix.chi2, fix.dof)) if fix.dof > 0 else 0.0
+
+    def _consistent(self, fix: Fix) -> bool:
+        return fix.dof == 0 or fix.chi2 <= chi2.ppf(self.gate_probability, fix.dof)
+
+
+class DivergenceMonitor:
+    """Spec 2.2.9: ``check(fix, ekf_x, ekf_y)`` is True when the EKF should be re-initialised
+    to the fix, i.e. after ``count`` fixes in a row further than ``distance`` from it."""
+
+    def __init__(self, distance: float = DIVERGENCE_DISTANCE,
+                 count: int = DIVERGENCE_COUNT) -> None:
+        self.distance = distance
+        self.count = count
+        self.disagreements = 0
+
+    def check(self, fix: Fix, ekf_x: float, ekf_y: float) -> bool:
+        if math.hypot(fix.x - ekf_x, fix.y - ekf_y) > self.distance:
+            self.disagreements += 1
+        else:
+            self.disagreements = 0
+        if self.disagreements >= self.count:
+            self.disagreements = 0
+            return True
+        return False
