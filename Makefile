@@ -4,7 +4,12 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
 
-.PHONY: demo test test-fast lint bench clean
+.PHONY: demo test test-fast lint bench params clean
+
+# The real ArduPilot SITL beside the checkout, when there is one: its tests and benchmarks run
+# (the variable may also be given by the caller; .ci/run sets it the same way).
+MAVHELM_ARDUPILOT ?= $(wildcard $(CURDIR)/../shared/ardupilot/ardurover)
+export MAVHELM_ARDUPILOT
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +32,12 @@ bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_demo.py
 	$(BIN)/python benchmarks/bench_hour_mission.py
 	$(BIN)/python benchmarks/bench_sim_alone.py
+	$(BIN)/python benchmarks/bench_link.py
+	$(BIN)/python benchmarks/bench_ardupilot_demo.py
+	$(BIN)/python benchmarks/bench_tracking.py
+
+params: $(BIN)/.installed
+	$(BIN)/mavhelm params > docs/parameters.md
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks

@@ -32,7 +32,7 @@ from mavhelm.tasks.geometry import (
 from mavhelm.tasks.orbit import Orbit
 from mavhelm.tasks.registry import build_task, task_class
 from mavhelm.tasks.survey import Survey
-from mavhelm.tasks.trackline import XTE_LIMIT, LineFollower, TrackLine
+from mavhelm.tasks.trackline import XTE_LIMIT, XTE_TI_LEADS, LineFollower, TrackLine
 from mavhelm.tasks.xypattern import XYPattern
 
 # tblock (blocks in t.moos at line 60, entries from line 61), nav_at: fixtures in conftest.py
@@ -320,17 +320,33 @@ def test_xte_integral_grows_bounded_and_only_near_the_line(tblock: TBlock,
     for k in range(1, 11):  # 10 s, 1 m to starboard, moving parallel to the line at 1 m/s
         t.step(nav_at(float(k), x=1.0, y=float(k), heading=0.0), float(k))
     assert t.follower is not None
-    # track measured from t=2 (1 s baseline), steady 2 s later: ∫ 1 m over t = 3..10
-    assert close(t.follower.integral, 7.0)
-    assert close(t.follower.correction, 7.0)
+    # track measured from t=2 (1 s baseline), steady 2 s later: learned over t = 3..10 at
+    # XTE · speed / (XTE_TI_LEADS · Lead²) rad/s (1 m off, 1 m/s, Lead 5)
+    rate = math.degrees(1.0 * 1.0 / (XTE_TI_LEADS * 5.0 ** 2))
+    assert close(t.follower.correction, 7.0 * rate)
     for k in range(11, 200):
         t.step(nav_at(float(k), x=1.0, y=float(k), heading=0.0), float(k))
     assert t.follower.correction == XTE_LIMIT, "bounded"
-    before = t.follower.integral
+    before = t.follower.correction
     t.step(nav_at(300.0, x=-20.0, y=100.0, heading=0.0), 300.0)
-    assert t.follower.integral == before, "not integrated a Lead or more off the line"
+    assert t.follower.correction == before, "not integrated a Lead or more off the line"
     t.resume()
-    assert t.follower.integral == 0.0, "the helm back online: forget the learned set"
+    assert t.follower.correction == 0.0, "the helm back online: forget the learned set"
+
+
+def test_xte_integral_learns_in_pursuit_time_constants(tblock: TBlock, nav_at: NavAt) -> None:
+    """The same offset is learned twice as fast at twice the speed, and 2.5 times slower with
+    a Lead 1.58 times longer (the integral's time is XTE_TI_LEADS × Lead / speed)."""
+    learned = {}
+    for lead, speed in ((5.0, 1.0), (5.0, 2.0), (5.0 * math.sqrt(2.5), 1.0)):
+        t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,1000"), ("Lead", f"{lead!r}"))
+        for k in range(1, 11):
+            t.step(nav_at(float(k), x=1.0, y=speed * k, heading=0.0), float(k))
+        assert isinstance(t, TrackLine) and t.follower is not None
+        learned[lead, speed] = t.follower.correction
+    assert learned[5.0, 1.0] > 0.0
+    assert close(learned[5.0, 2.0], 2.0 * learned[5.0, 1.0])
+    assert close(learned[5.0 * math.sqrt(2.5), 1.0], learned[5.0, 1.0] / 2.5)
 
 
 def test_xte_integral_steps_at_most_one_second(tblock: TBlock, nav_at: NavAt) -> None:
@@ -339,10 +355,12 @@ def test_xte_integral_steps_at_most_one_second(tblock: TBlock, nav_at: NavAt) ->
     for k in range(1, 7):
         t.step(nav_at(float(k), x=2.0, y=float(k), heading=0.0), float(k))
     assert t.follower is not None
-    before = t.follower.integral
+    before = t.follower.correction
     assert before > 0
     t.step(nav_at(36.0, x=2.0, y=36.0, heading=0.0), 36.0)
-    assert close(t.follower.integral - before, 2.0), "a 30 s gap counts as 1 s: not an offset"
+    one_second = math.degrees(2.0 * 1.0 / (XTE_TI_LEADS * 5.0 ** 2))  # 2 m off at 1 m/s
+    assert close(t.follower.correction - before, one_second), \
+        "a 30 s gap counts as 1 s: not an offset"
 
 
 def test_line_follower_heading_sign_and_correction() -> None:
@@ -432,9 +450,9 @@ def test_xypattern_each_line_starts_with_no_learned_correction(tblock: TBlock,
     assert isinstance(t, XYPattern)
     for k in range(1, 30):
         t.step(nav_at(float(k), x=1.0, y=3.0 * k, heading=0.0), float(k))
-    assert t.follower is not None and t.follower.integral > 0
+    assert t.follower is not None and t.follower.correction > 0
     t.step(nav_at(30.0, x=1.0, y=99.0, heading=0.0), 30.0)
-    assert t.index == 1 and t.follower.integral == 0.0
+    assert t.index == 1 and t.follower.correction == 0.0
 
 
 # ---- Orbit -----------------------------------------------------------------------------------
@@ -614,7 +632,7 @@ def test_integral_gate_learns_a_held_offset_only() -> None:
     assert not any(_feed(stopped, [(0.1 * k, 1.0, 20.0) for k in range(60)]))
     far = LineFollower(*line, 5.0)  # parallel, but a Lead or more off
     assert not any(_feed(far, [(0.1 * k, 6.0, 0.16 * k) for k in range(60)]))
-    assert (closing.integral, stopped.integral, far.integral) == (0.0, 0.0, 0.0)
+    assert (closing.correction, stopped.correction, far.correction) == (0.0, 0.0, 0.0)
 
 
 def test_integral_gate_ignores_the_far_point_of_a_swing() -> None:
@@ -622,4 +640,4 @@ def test_integral_gate_ignores_the_far_point_of_a_swing() -> None:
     parallel to the line only for a moment at the top."""
     f = LineFollower((0.0, 0.0), (0.0, 1000.0), 5.0)
     fixes = [(0.1 * k, 2.5 * math.sin(math.pi * k / 60.0), 0.16 * k) for k in range(60)]
-    assert not any(_feed(f, fixes)) and f.integral == 0.0
+    assert not any(_feed(f, fixes)) and f.correction == 0.0
