@@ -190,7 +190,8 @@ def test_event_posts_event_flags_and_keeps_running(heading_task: HeadingTask) ->
     t.start(0.0)
     t.take_notifications()
     t.event("too deep")
-    assert t.take_notifications() == [("Ev1", "too deep"), ("Ev2", "too deep")]
+    assert t.take_notifications() == [("TASK_EVENT", f"{t.name}: too deep"), ("Ev1", "too deep"),
+                                      ("Ev2", "too deep")], "said to the operator, then flagged"
     assert t.active
 
 
