@@ -61,11 +61,8 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -75,9 +72,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
     ARDUPILOT_ENV,
+    CompanionProcess,
     RealOperator,
     RealSitl,
-    _set_parent_death_signal,
     ardupilot_binary,
 )
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
@@ -300,44 +297,6 @@ CALM = {"WP_SPEED": 2, "SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
 WIND = {"WP_SPEED": 2}
 
 
-class Companion:
-    """``mavhelm run MISSION --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own
-    process; its console lines are collected by a thread."""
-
-    head = [sys.executable, "-m", "mavhelm.cli"]
-
-    def __init__(self, mission: Path, port: int, log_dir: Path) -> None:
-        log_dir.mkdir(parents=True, exist_ok=True)
-        self.lines: list[tuple[float, str]] = []
-        self.proc = subprocess.Popen(
-            [*self.head, "run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
-             "--clock", "autopilot", "--log-dir", str(log_dir)],
-            cwd=log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    def find(self, fragment: str) -> float | None:
-        return next((t for t, line in list(self.lines) if fragment in line), None)
-
-    def stop(self) -> None:
-        """SIGTERM to its own pid, SIGKILL after 10 s."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
-
-
 def ask_for_truth(op: RealOperator) -> None:
     """Telemetry at 4 Hz, and SIMSTATE at TRUTH_HZ (autopilot hertz) with ATTITUDE at the same
     rate (SIMSTATE has no time stamp: it takes the time_boot_ms of the message before it),
@@ -367,13 +326,14 @@ def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
             RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
         ask_for_truth(op)
         sitl.wait_listening(sitl.ports.serial1)
-        comp = Companion(mission, sitl.ports.serial1, folder / "companion")
+        comp = CompanionProcess(mission, sitl.ports.serial1, folder / "companion")
         try:
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / SPEEDUP)
             online = op.handed_over_wall or 0.0
             op.wait_until(lambda: comp.find("MISSION ENDED") is not None
                           or comp.proc.poll() is not None, MISSION_WALL_S, "MISSION ENDED")
-            ended = comp.find("MISSION ENDED")
+            hit = comp.find("MISSION ENDED")
+            ended = hit[0] if hit is not None else None
         finally:
             comp.stop()
     if ended is None:
