@@ -3,6 +3,7 @@ speaks MAVLink 2, and bounds what a flood costs without losing the newest HEARTB
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import tracemalloc
@@ -10,7 +11,7 @@ import tracemalloc
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.link import AutopilotLink, TcpTransport, transport_for
+from mavhelm.companion.link import READ_BUDGET, AutopilotLink, TcpTransport, transport_for
 
 
 def free_port() -> int:
@@ -68,6 +69,22 @@ def in_thread(fn, seconds: float = 20.0):
     return result[0] if result else None
 
 
+@contextlib.contextmanager
+def connected(budget: int = READ_BUDGET):
+    """A fake autopilot on a free port and a link already connected to it."""
+    port = free_port()
+    ap = Autopilot(port)
+    link = AutopilotLink(f"tcp:127.0.0.1:{port}", budget=budget)
+    try:
+        link.poll(0.0)
+        ap.accept()
+        poll_until(link, 0.0, lambda _got: link.connected)
+        yield ap, link, port
+    finally:
+        ap.close()
+        link.close()
+
+
 def test_urls_pick_their_transport():
     assert isinstance(transport_for("tcp:127.0.0.1:5760", 57600), TcpTransport)
     assert transport_for("udpout:127.0.0.1:14550", 57600).listen is False
@@ -108,13 +125,7 @@ def test_a_link_started_before_the_autopilot_waits_and_retries_with_backoff():
 
 
 def test_frames_sent_are_mavlink_2():
-    port = free_port()
-    ap = Autopilot(port)
-    link = AutopilotLink(f"tcp:127.0.0.1:{port}")
-    try:
-        link.poll(0.0)
-        ap.accept()
-        poll_until(link, 0.0, lambda _got: link.connected)
+    with connected() as (ap, link, _port):
         link.mav.heartbeat_send(18, 8, 0, 0, 4)
         assert ap.conn is not None
         ap.conn.settimeout(5)
@@ -124,18 +135,10 @@ def test_frames_sent_are_mavlink_2():
         assert [m.get_type() for m in parsed] == ["HEARTBEAT"]
         assert (parsed[0].get_srcSystem(), parsed[0].get_srcComponent()) == (1, 191)
         assert link.stats.bytes_written == len(data)
-    finally:
-        ap.close()
-        link.close()
 
 
 def test_a_dropped_connection_is_reported_and_a_new_one_has_a_new_generation():
-    port = free_port()
-    ap = Autopilot(port)
-    link = AutopilotLink(f"tcp:127.0.0.1:{port}")
-    try:
-        link.poll(0.0)
-        ap.accept()
+    with connected() as (ap, link, port):
         assert ap.conn is not None
         ap.conn.sendall(ap.heartbeat())
         got = poll_until(link, 0.0, lambda got: any(m.get_type() == "HEARTBEAT" for m in got))
@@ -149,19 +152,10 @@ def test_a_dropped_connection_is_reported_and_a_new_one_has_a_new_generation():
         ap.accept()
         poll_until(link, 2.5, lambda _got: link.connected)
         assert link.generation == 2
-    finally:
-        ap.close()
-        link.close()
 
 
 def test_a_flood_is_bounded_and_the_newest_heartbeat_survives():
-    port = free_port()
-    ap = Autopilot(port)
-    link = AutopilotLink(f"tcp:127.0.0.1:{port}", budget=8192)
-    try:
-        link.poll(0.0)
-        ap.accept()
-        poll_until(link, 0.0, lambda _got: link.connected)
+    with connected(budget=8192) as (ap, link, _port):
         attitude = ap.frame("attitude", time_boot_ms=1, roll=0.0, pitch=0.0, yaw=1.0,
                             rollspeed=0.0, pitchspeed=0.0, yawspeed=0.0)
         flood = (ap.heartbeat(custom_mode=0) + attitude * 2000 + ap.heartbeat(custom_mode=4)
@@ -182,6 +176,3 @@ def test_a_flood_is_bounded_and_the_newest_heartbeat_survives():
         assert link.stats.bytes_dropped > len(flood) // 2
         parsed_attitudes = sum(m.get_type() == "ATTITUDE" for m in got)
         assert parsed_attitudes < 152000 * 0.1, "most of the flood is dropped, not parsed"
-    finally:
-        ap.close()
-        link.close()
