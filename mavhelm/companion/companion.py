@@ -16,6 +16,7 @@ from mavhelm.companion.alog import AlogLogger, log_dir
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.serial_instruments import (
     SerialInstrument,
     instruments_from_mission,
@@ -127,6 +128,7 @@ class Companion:
     community: Community
     tick_period: float
     plan: Plan
+    nav_logs: NavLogFiles | None = None
 
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
@@ -140,11 +142,19 @@ class Companion:
         bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
                                time_source=getattr(clock, "observe", None))
         apps: list[App] = [*plan.instruments, bridge.input, navigator, helm, bridge.output]
+        nav_logs: NavLogFiles | None = None
         if alog_path is not None:
             apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
+            if navigator.wants_log:
+                where = navigator.log_settings
+                nav_logs = NavLogFiles(where["nav_log_path"] or Path(alog_path).parent,
+                                       where["nav_log_stem"],
+                                       timestamp=where["nav_log_timestamp"],
+                                       opened_on=alog_opened_on)
+                navigator.log = nav_logs
         apps.append(StatusConsole(bus, echo, statustext=bridge.send_statustext))
         companion = cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
-                        1.0 / helm.app_tick, plan)
+                        1.0 / helm.app_tick, plan, nav_logs)
         companion.community.apps.insert(0, HelmReloader(bus, companion.reload))
         return companion
 
@@ -189,3 +199,5 @@ class Companion:
 
     def close(self) -> None:
         self.community.close()
+        if self.nav_logs is not None:
+            self.nav_logs.close()

@@ -26,3 +26,8 @@ def source_variable(name: str) -> str:
 def desired(actuator: str) -> str:
     """The helm's output variable for an actuator (``RUDDER`` → ``DESIRED_RUDDER``)."""
     return f"DESIRED_{actuator}"
+
+NAVIGATION_FAILURE: Final = "NAVIGATION_FAILURE"
+"""pNav's reason, posted once, when its filters go off-line for good (spec 2.2.11)."""
+END_MISSION: Final = "EndMission"
+"""Posted to end the mission (spec 2.2.11): it starts every EndMission task of the helm."""

@@ -6,14 +6,25 @@ State, in this order (indices are the ``I_*`` constants)::
     H             yaw, radians, MOOS convention yaw = −heading (0 = north, counter-clockwise
                   positive); the bow points along (−sin H, cos H)
     Ẋ, Ẏ, Ḣ       earth-frame velocity (m/s) and yaw rate (rad/s)
+    [Z, Ż]        height of the vehicle's origin (m, up; −depth at zero tide) and its rate, if
+                  ``estimate_z`` (an underwater vehicle, or a depth sensor declared)
     [b]           hidden: heading bias of the orientation sensor (rad), if ``estimate_yaw_bias``
+    [tide]        hidden: height of the sea surface above the Z = 0 plane (m), if
+                  ``estimate_tide``; depth = tide − Z (spec 2.3.1)
     [s]           hidden: range scale error shared by all beacons, if ``estimate_range_scale``
                   and there are beacons
     [o_1 … o_n]   hidden: one range offset per beacon (m), in the order the beacons are given
 
-Model (spec 2.2.3): constant velocity in X, Y and H, uncoupled, driven by white acceleration
-whose strength is the spec's ``EKF_*_DYNAMICS`` setting 0–10 (see :class:`EKFConfig`); the
-hidden states are random walks (constant plus a slow drift).
+Model (spec 2.2.3): constant velocity in X, Y, Z and H, uncoupled, driven by white
+acceleration whose strength is the spec's ``EKF_*_DYNAMICS`` setting 0–10 (see
+:class:`EKFConfig`); the hidden states are random walks (constant plus a slow drift). A static
+vehicle (spec 2.2.2, ``mobile=False``) has its rate states held at zero and its pose a random
+walk instead.
+
+Sensor geometry (spec 2.2.1): every observation may carry its sensor's lever arm in body
+coordinates, MOOS's: x to starboard, y forward, z up (m). A GPS antenna on the mast, a DVL
+at the bow or a transducer below the keel is then explained where it is, which couples heading
+into position and rotation into velocity (``ω × r``) as the real geometry does.
 
 Observations (each carries its own time and its sensor's 1-σ noise, as a ``SENSOR_*`` line
 declares it):
@@ -31,7 +42,9 @@ declares it):
   this is what couples heading and position (spec 2.2.3): with a position sensor it makes the
   heading bias observable (spec 2.2.10).
 - :class:`Yaw` from an orientation sensor: ``z = H + b`` (b only when estimated).
-- :class:`Position` (GPS XY): ``z = (X, Y)``.
+- :class:`Position` (GPS XY): ``z = (X, Y)`` (plus the rotated lever arm).
+- :class:`Depth`: ``z = tide − (Z + lever z)``; :class:`Tide`: ``z = tide`` (a fixed
+  observation, spec 2.2.8, pins the Z = 0 plane to the surface).
 
 Data rejection (spec 2.2.6): the observations of one time slice are tested together; each one
 first alone (χ² test of its own Mahalanobis distance), then the survivors jointly; when the
@@ -80,6 +93,8 @@ I_VX: Final = 3
 I_VY: Final = 4
 I_VH: Final = 5
 N_VEHICLE: Final = 6
+I_Z_FIRST: Final = N_VEHICLE
+"""Z and Ż follow the vehicle states when the filter has them (``EKF.i_z``, ``EKF.i_vz``)."""
 """Indices of the vehicle states; the hidden states follow (see :class:`EKF`)."""
 
 # Full-scale process noise of the constant-velocity model: the spectral density of the white
@@ -104,6 +119,14 @@ YAW_SIGMA: Final = math.radians(2.0)
 """rad: an orientation sensor (compass, AHRS) apart from its slowly drifting bias."""
 POSITION_SIGMA: Final = 3.0
 """m: a GPS fix."""
+DEPTH_SIGMA: Final = 0.1
+"""m: a pressure depth sensor."""
+TIDE_SIGMA: Final = 0.1
+"""m: a tide observation (usually a fixed one)."""
+
+Lever = tuple[float, float, float]
+"""A sensor's position in body coordinates (m): x starboard, y forward, z up (MOOS's)."""
+NO_LEVER: Final[Lever] = (0.0, 0.0, 0.0)
 
 
 class NavigationFailure(Exception):
@@ -115,13 +138,16 @@ class NavigationFailure(Exception):
 class Beacon:
     """A range beacon at a surveyed position. ``z`` is its height relative to the vehicle's
     plane (negative below it), so ranges are slant ranges. ``offset`` is the prior of its range
-    offset (a known turn-around delay, in metres); the filter learns the rest."""
+    offset (a known delay, in metres); the filter learns the rest. ``turnaround`` (s) is an
+    acoustic transponder's reply delay, taken off its two-way travel times before they
+    become ranges."""
 
     name: str
     x: float
     y: float
     z: float = 0.0
     offset: float = 0.0
+    turnaround: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -148,6 +174,12 @@ class EKFConfig:
       observation is refused beyond 3.3 σ).
     - ``max_speed`` (m/s), ``max_yaw_rate`` (rad/s): rate states beyond these are reset.
     - ``max_position_sigma`` (m): larger 1-σ of the position is a navigation failure.
+    - ``mobile``: False for a static vehicle (spec 2.2.2): no rate states, the pose a random
+      walk of the dynamics' strength.
+    - ``estimate_z``: add Z and Ż (``z_dynamics``, ``sigma_z`` its start 1-σ);
+      ``estimate_tide``: add the tide (``sigma_tide``, ``tide_noise`` m/√s). Tide alone with
+      a depth sensor is not observable: give ranges to beacons at known heights or a fixed
+      tide observation too.
     """
 
     xy_dynamics: float = 5.0
@@ -168,19 +200,27 @@ class EKFConfig:
     max_speed: float = 10.0
     max_yaw_rate: float = math.pi
     max_position_sigma: float = 100.0
+    mobile: bool = True
+    estimate_z: bool = False
+    z_dynamics: float = 5.0
+    sigma_z: float = 10.0
+    estimate_tide: bool = False
+    sigma_tide: float = 1.0
+    tide_noise: float = 1e-3
 
     def __post_init__(self) -> None:
-        for name in ("xy_dynamics", "yaw_dynamics"):
+        for name in ("xy_dynamics", "yaw_dynamics", "z_dynamics"):
             value = getattr(self, name)
             if not 0.0 <= value <= 10.0:
                 raise ValueError(f"{name} must be in [0, 10], got {value}")
         for name in ("sigma_xy", "sigma_yaw", "sigma_velocity", "sigma_yaw_rate",
                      "sigma_yaw_bias", "sigma_range_scale", "sigma_beacon_offset", "max_speed",
-                     "max_yaw_rate", "max_position_sigma"):
+                     "max_yaw_rate", "max_position_sigma", "sigma_z", "sigma_tide"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
-        for name in ("yaw_bias_noise", "range_scale_noise", "beacon_offset_noise"):
+        for name in ("yaw_bias_noise", "range_scale_noise", "beacon_offset_noise",
+                     "tide_noise"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be >= 0, got {value}")
@@ -199,6 +239,7 @@ class Range:
     beacon: str
     z: float
     sigma: float = RANGE_SIGMA
+    lever: Lever = NO_LEVER
 
 
 @dataclass(frozen=True)
@@ -213,6 +254,7 @@ class BodyVelocity:
     sigma_forward: float = SPEED_SIGMA
     sigma_starboard: float = SIDESLIP_SIGMA
     sigma_yaw_rate: float = YAW_RATE_SIGMA
+    lever: Lever = NO_LEVER
 
 
 @dataclass(frozen=True)
@@ -232,9 +274,29 @@ class Position:
     x: float
     y: float
     sigma: float = POSITION_SIGMA
+    lever: Lever = NO_LEVER
 
 
-Observation = Range | BodyVelocity | Yaw | Position
+@dataclass(frozen=True)
+class Depth:
+    """Depth of the sensor below the surface (m, positive down) at ``t``."""
+
+    t: float
+    z: float
+    sigma: float = DEPTH_SIGMA
+    lever: Lever = NO_LEVER
+
+
+@dataclass(frozen=True)
+class Tide:
+    """Height of the surface above the Z = 0 plane (m) at ``t``."""
+
+    t: float
+    z: float
+    sigma: float = TIDE_SIGMA
+
+
+Observation = Range | BodyVelocity | Yaw | Position | Depth | Tide
 
 
 def odometry(t: float, interval: float, distance: float, dyaw: float, *,
@@ -281,6 +343,14 @@ class Estimate:
     yaw_bias: float
     range_scale: float
     offsets: dict[str, float]
+    z: float = 0.0
+    z_vel: float = 0.0
+    tide: float = 0.0
+    sigma_z: float = 0.0
+
+    @property
+    def depth(self) -> float:
+        return self.tide - self.z
 
     @property
     def speed(self) -> float:
@@ -348,8 +418,16 @@ class EKF:
             if beacon.name in self.beacons:
                 raise ValueError(f"beacon {beacon.name} is declared twice")
             self.beacons[beacon.name] = beacon
-        self.i_bias: int | None = N_VEHICLE if cfg.estimate_yaw_bias else None
-        n = N_VEHICLE + (1 if cfg.estimate_yaw_bias else 0)
+        n = N_VEHICLE
+        self.i_z: int | None = None
+        self.i_vz: int | None = None
+        if cfg.estimate_z:
+            self.i_z, self.i_vz = n, n + 1
+            n += 2
+        self.i_bias: int | None = n if cfg.estimate_yaw_bias else None
+        n += 1 if cfg.estimate_yaw_bias else 0
+        self.i_tide: int | None = n if cfg.estimate_tide else None
+        n += 1 if cfg.estimate_tide else 0
         self.i_scale: int | None = n if cfg.estimate_range_scale and self.beacons else None
         first_offset = n + (1 if self.i_scale is not None else 0)
         self._offset_index = {name: first_offset + k for k, name in enumerate(self.beacons)}
@@ -378,15 +456,25 @@ class EKF:
         var[I_H] = syaw**2
         var[[I_VX, I_VY]] = cfg.sigma_velocity**2
         var[I_VH] = cfg.sigma_yaw_rate**2
+        if self.i_z is not None and self.i_vz is not None:
+            var[self.i_z] = cfg.sigma_z**2
+            var[self.i_vz] = cfg.sigma_velocity**2
         if self.i_bias is not None:
             var[self.i_bias] = cfg.sigma_yaw_bias**2
+        if self.i_tide is not None:
+            var[self.i_tide] = cfg.sigma_tide**2
         if self.i_scale is not None:
             var[self.i_scale] = cfg.sigma_range_scale**2
         for name, i in self._offset_index.items():
             state[i] = self.beacons[name].offset
             var[i] = cfg.sigma_beacon_offset**2
+        if not cfg.mobile:
+            var[list(self._rate_indices())] = 0.0
         self.kf.x = state.reshape(-1, 1)
         self.kf.P = np.diag(var)
+
+    def _rate_indices(self) -> tuple[int, ...]:
+        return (I_VX, I_VY, I_VH) + ((self.i_vz,) if self.i_vz is not None else ())
 
     # textbook names, backed by filterpy's arrays
     @property
@@ -436,16 +524,27 @@ class EKF:
             raise ValueError(f"predict needs dt >= 0 s, got {dt}")
         cfg = self.config
         F = np.eye(self.dim)
-        F[I_X, I_VX] = F[I_Y, I_VY] = F[I_H, I_VH] = dt
         Q = np.zeros((self.dim, self.dim))
         q_xy = cfg.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
         q_yaw = cfg.yaw_dynamics / 10.0 * FULL_SCALE_YAW_ACCEL
+        q_z = cfg.z_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        pairs = [((I_X, I_VX), q_xy), ((I_Y, I_VY), q_xy), ((I_H, I_VH), q_yaw)]
+        if self.i_z is not None and self.i_vz is not None:
+            pairs.append(((self.i_z, self.i_vz), q_z))
+        if cfg.mobile:
+            for (p, v), _q in pairs:
+                F[p, v] = dt
         if dt > 0:
             pp, pv, _, vv = white_noise_block(dt)
-            for (p, v), q in (((I_X, I_VX), q_xy), ((I_Y, I_VY), q_xy), ((I_H, I_VH), q_yaw)):
-                Q[p, p], Q[p, v], Q[v, p], Q[v, v] = q * pp, q * pv, q * pv, q * vv
+            for (p, v), q in pairs:
+                if cfg.mobile:
+                    Q[p, p], Q[p, v], Q[v, p], Q[v, v] = q * pp, q * pv, q * pv, q * vv
+                else:
+                    Q[p, p] = q * dt  # a static vehicle's pose: a random walk
             if self.i_bias is not None:
                 Q[self.i_bias, self.i_bias] = cfg.yaw_bias_noise**2 * dt
+            if self.i_tide is not None:
+                Q[self.i_tide, self.i_tide] = cfg.tide_noise**2 * dt
             if self.i_scale is not None:
                 Q[self.i_scale, self.i_scale] = cfg.range_scale_noise**2 * dt
             for i in self._offset_index.values():
@@ -536,15 +635,18 @@ class EKF:
                 raise KeyError(f"range to unknown beacon {obs.beacon!r}")
             b = self.beacons[obs.beacon]
             i = self._offset_index[obs.beacon]
-            dx, dy = x[I_X] - b.x, x[I_Y] - b.y
-            d = math.sqrt(dx * dx + dy * dy + b.z * b.z)
-            d = max(d, 1e-6)
+            (px, py, pz), (dpx, dpy) = self._sensor_position(x, obs.lever)
+            dx, dy, dz = px - b.x, py - b.y, pz - b.z
+            d = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
             k = 1.0
             H = np.zeros((1, n))
             if self.i_scale is not None:
                 k += x[self.i_scale]
                 H[0, self.i_scale] = d
             H[0, I_X], H[0, I_Y], H[0, i] = k * dx / d, k * dy / d, 1.0
+            H[0, I_H] = k * (dx * dpx + dy * dpy) / d
+            if self.i_z is not None:
+                H[0, self.i_z] = k * dz / d
             return _Rows(np.array([obs.z]), np.array([k * d + x[i]]), H,
                          np.array([obs.sigma**2]), np.array([False]))
         if isinstance(obs, BodyVelocity):
@@ -552,21 +654,23 @@ class EKF:
             vx, vy = x[I_VX], x[I_VY]
             u = -vx * s + vy * c
             v = vx * c + vy * s
+            lx, ly, _lz = obs.lever
+            w = x[I_VH]
             zs, hs, Hs, rs = [], [], [], []
             if obs.forward is not None:
                 h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H] = -s, c, -v
-                zs.append(obs.forward), hs.append(u), Hs.append(h)
+                h[I_VX], h[I_VY], h[I_H], h[I_VH] = -s, c, -v, lx
+                zs.append(obs.forward), hs.append(u + w * lx), Hs.append(h)
                 rs.append(obs.sigma_forward**2)
             if obs.starboard is not None:
                 h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H] = c, s, u
-                zs.append(obs.starboard), hs.append(v), Hs.append(h)
+                h[I_VX], h[I_VY], h[I_H], h[I_VH] = c, s, u, -ly
+                zs.append(obs.starboard), hs.append(v - w * ly), Hs.append(h)
                 rs.append(obs.sigma_starboard**2)
             if obs.yaw_rate is not None:
                 h = np.zeros(n)
                 h[I_VH] = 1.0
-                zs.append(obs.yaw_rate), hs.append(x[I_VH]), Hs.append(h)
+                zs.append(obs.yaw_rate), hs.append(w), Hs.append(h)
                 rs.append(obs.sigma_yaw_rate**2)
             if not zs:
                 raise ValueError("a BodyVelocity observation with no part")
@@ -582,11 +686,44 @@ class EKF:
             return _Rows(np.array([obs.z]), np.array([predicted]), H,
                          np.array([obs.sigma**2]), np.array([True]))
         if isinstance(obs, Position):
+            (px, py, _pz), (dpx, dpy) = self._sensor_position(x, obs.lever)
             H = np.zeros((2, n))
             H[0, I_X] = H[1, I_Y] = 1.0
-            return _Rows(np.array([obs.x, obs.y]), x[[I_X, I_Y]].copy(), H,
+            H[0, I_H], H[1, I_H] = dpx, dpy
+            return _Rows(np.array([obs.x, obs.y]), np.array([px, py]), H,
                          np.array([obs.sigma**2] * 2), np.array([False, False]))
+        if isinstance(obs, Depth):
+            if self.i_z is None:
+                raise ValueError("a depth observation needs the Z state (estimate_z)")
+            H = np.zeros((1, n))
+            H[0, self.i_z] = -1.0
+            predicted = -x[self.i_z] - obs.lever[2]
+            if self.i_tide is not None:
+                H[0, self.i_tide] = 1.0
+                predicted += x[self.i_tide]
+            return _Rows(np.array([obs.z]), np.array([predicted]), H,
+                         np.array([obs.sigma**2]), np.array([False]))
+        if isinstance(obs, Tide):
+            if self.i_tide is None:
+                raise ValueError("a tide observation needs the tide state (estimate_tide)")
+            H = np.zeros((1, n))
+            H[0, self.i_tide] = 1.0
+            return _Rows(np.array([obs.z]), np.array([x[self.i_tide]]), H,
+                         np.array([obs.sigma**2]), np.array([False]))
         raise TypeError(f"not an observation: {obs!r}")
+
+    def _sensor_position(self, x: np.ndarray, lever: Lever
+                         ) -> tuple[tuple[float, float, float], tuple[float, float]]:
+        """Where a sensor at ``lever`` (body x starboard, y forward, z up) is in the local
+        frame, and the derivative of its X, Y with respect to yaw."""
+        lx, ly, lz = lever
+        z = (x[self.i_z] if self.i_z is not None else 0.0) + lz
+        if lx == 0.0 and ly == 0.0:
+            return (x[I_X], x[I_Y], z), (0.0, 0.0)
+        s, c = math.sin(x[I_H]), math.cos(x[I_H])
+        px = x[I_X] + lx * c - ly * s
+        py = x[I_Y] + lx * s + ly * c
+        return (px, py, z), (-lx * s - ly * c, lx * c - ly * s)
 
     # ------------------------------------------------------------------ housekeeping
 
@@ -618,6 +755,8 @@ class EKF:
         if self.i_bias is not None:
             x[self.i_bias, 0] = wrap_angle(float(x[self.i_bias, 0]))
         self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
+        if not cfg.mobile:
+            self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
         speed = math.hypot(x[I_VX, 0], x[I_VY, 0])
         if not speed <= cfg.max_speed:
             self._reset_states((I_VX, I_VY), (0.0, 0.0), cfg.sigma_velocity**2)
@@ -658,6 +797,8 @@ class EKF:
         x[I_X] += dt * x[I_VX]
         x[I_Y] += dt * x[I_VY]
         x[I_H] = wrap_angle(x[I_H] + dt * x[I_VH])
+        if self.i_z is not None and self.i_vz is not None:
+            x[self.i_z] += dt * x[self.i_vz]
         return self._estimate(t, x)
 
     def _estimate(self, t: float, x: np.ndarray) -> Estimate:
@@ -670,6 +811,10 @@ class EKF:
             yaw_bias=float(x[self.i_bias]) if self.i_bias is not None else 0.0,
             range_scale=float(x[self.i_scale]) if self.i_scale is not None else 0.0,
             offsets={name: float(x[i]) for name, i in self._offset_index.items()},
+            z=float(x[self.i_z]) if self.i_z is not None else 0.0,
+            z_vel=float(x[self.i_vz]) if self.i_vz is not None else 0.0,
+            tide=float(x[self.i_tide]) if self.i_tide is not None else 0.0,
+            sigma_z=math.sqrt(P[self.i_z, self.i_z]) if self.i_z is not None else 0.0,
         )
 
 

@@ -13,6 +13,7 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.mission import Block, Mission, MissionError
 from mavhelm.core.names import (
+    END_MISSION,
     HELM_ONLINE,
     MAIN_ACTUATORS,
     NAV_HEADING,
@@ -72,6 +73,10 @@ class Helm(App):
                 )
             seen[task.name] = tb
             self.tasks.append(task)
+        for task in self.tasks:
+            if isinstance(task, EndMission) and END_MISSION not in task.start_flags:
+                # pNav's navigation failure ends the mission (spec 2.2.11) whatever the flags
+                task.start_flags.append(END_MISSION)
         for cls in (EndMission, OverallTimeOut):
             if not any(isinstance(t, cls) for t in self.tasks):
                 raise block.error(

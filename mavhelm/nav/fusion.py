@@ -1,0 +1,344 @@
+"""The navigation filters run together (spec 2.2): time queue, lag, LSQ boot and watch, failure.
+
+:class:`Fusion` is what pNav does with observations each tick, as a pure object of
+(state, readings, time) — the navigator app and an offline replay drive the same code:
+
+- **Time queue and lag** (spec 2.2.7): readings wait in a queue that sorts itself on time
+  stamp; each tick the filter takes those up to ``now − lag``, in time order, one time slice
+  (equal stamps) per update, then forecasts its estimate to ``now``. A reading older than what
+  the filter has already processed arrives too late for it and is logged ``late``; set
+  ``EKF_LAG`` to the age of the oldest data worth using (LBL replies: the listen window).
+- **Fixed observations** (spec 2.2.8) are added once per tick at the filter's time.
+- **LSQ** (spec 2.2.9): ranges also feed the least-squares filter. Its fixes boot the EKF when
+  no start was given (a repeatable stream of ``BOOT_FIXES``), re-initialise it after a
+  sustained disagreement, and prove observability: no fix for ``lsq_timeout`` seconds is a
+  navigation failure. With no beacons, the first XY fix boots the EKF instead.
+- **Channel rejection** (spec 2.2.6, ``LSQ_REJECTION``): a ranging sensor's channels are
+  tested against their own recent consensus before either filter sees them.
+- **Navigation failure** (spec 2.2.11): the EKF's uncertainty limit or the LSQ time-out takes
+  every filter off-line for good; ``failure`` says why. The owner publishes it.
+
+Logs (spec 2.2.5): ``olog`` collects one line per reading with its fate (accepted, rejected
+with its χ² distance, late, outlier, waiting for the filter to boot), ``xlog`` one line per
+tick with the state and the 1-σ of each state; the owner writes them out and clears them.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from dataclasses import dataclass, field
+
+from mavhelm.nav.ekf import (
+    EKF,
+    Beacon,
+    BodyVelocity,
+    Depth,
+    EKFConfig,
+    Estimate,
+    NavigationFailure,
+    Observation,
+    Position,
+    Range,
+    Tide,
+    Yaw,
+)
+from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix
+from mavhelm.nav.sensor_channel import RejectionRule, SensorChannel
+from mavhelm.nav.sensors import FixedValue, Reading, fixed_observations
+
+BOOT_FIXES = 3
+"""LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
+(spec 2.2.9: "once a stable/repeatable stream of solutions begins to flow")."""
+BOOT_AGREEMENT = 10.0
+"""m: how close consecutive boot fixes must be (a boat moves a few metres between fixes)."""
+BOOT_SIGMA = 5.0
+"""m: the least 1-σ given to an LSQ fix that boots or resets the EKF. A fix's formal σ only
+counts the ranges' noise; their unknown offsets and scale (the EKF's hidden states, not yet
+learned at boot) move it by metres (Plaza: 4.5 m, from ranges 7 % long)."""
+FUTURE_TOLERANCE = 1.0
+"""s: a reading stamped further ahead of the navigator's clock than this is refused."""
+
+
+@dataclass(frozen=True)
+class Start:
+    """A start pose known roughly (spec 2.2.4): position (m) and yaw (rad) with their 1-σ."""
+
+    x: float
+    y: float
+    yaw: float = 0.0
+    sigma_xy: float = 5.0
+    sigma_yaw: float | None = None
+    z: float = 0.0
+
+
+@dataclass(frozen=True)
+class FusionConfig:
+    """The pNav block's filter settings, already checked by its schema."""
+
+    ekf: EKFConfig = field(default_factory=EKFConfig)
+    beacons: tuple[Beacon, ...] = ()
+    lag: float = 0.0
+    start: Start | None = None
+    lsq: bool = True
+    lsq_window: float = 5.0
+    lsq_timeout: float | None = 30.0
+    lsq_offset: bool = False
+    divergence_distance: float = 20.0
+    divergence_count: int = 6
+    fixed_depth: FixedValue | None = None
+    fixed_heading: FixedValue | None = None
+    fixed_tide: FixedValue | None = None
+    rejection: tuple[RejectionRule, ...] = ()
+
+
+def describe(obs: Observation) -> str:
+    """An observation's values for the .olog, compactly."""
+    if isinstance(obs, Range):
+        return f"beacon={obs.beacon} range={obs.z:.3f}"
+    if isinstance(obs, Position):
+        return f"x={obs.x:.3f} y={obs.y:.3f}"
+    if isinstance(obs, Yaw):
+        return f"yaw={obs.z:.4f}"
+    if isinstance(obs, BodyVelocity):
+        parts = [f"{k}={v:.3f}" for k, v in (("u", obs.forward), ("v", obs.starboard),
+                                             ("w", obs.yaw_rate)) if v is not None]
+        return " ".join(parts)
+    if isinstance(obs, Depth):
+        return f"depth={obs.z:.3f}"
+    if isinstance(obs, Tide):
+        return f"tide={obs.z:.3f}"
+    return repr(obs)
+
+
+class Fusion:
+    """EKF and LSQ fed from one time queue. ``add(reading, now)`` as data arrive; once a tick
+    ``step(now)``, which returns the EKF's estimate forecast to ``now`` (None until booted or
+    after a failure). New LSQ fixes are in ``new_fixes`` after a step."""
+
+    def __init__(self, config: FusionConfig) -> None:
+        self.config = config
+        beacons = list(config.beacons)
+        self.lsq: LSQ | None = (LSQ(beacons, window=config.lsq_window,
+                                    estimate_offset=config.lsq_offset)
+                                if beacons and config.lsq else None)
+        self.monitor = DivergenceMonitor(config.divergence_distance, config.divergence_count)
+        self.ekf: EKF | None = None
+        self.horizon: float | None = None
+        self.last_fix_time: float | None = None
+        self.failure: str | None = None
+        self.new_fixes: list[Fix] = []
+        self.olog: list[str] = []
+        self.xlog: list[str] = []
+        self.warnings: list[str] = []
+        self.counts = {"accepted": 0, "rejected": 0, "late": 0, "future": 0, "outlier": 0,
+                       "waiting": 0, "offline": 0}
+        self.reinitialisations = 0
+        self.fixes = 0
+        self._queue: list[tuple[float, int, Reading]] = []
+        self._seq = itertools.count()
+        self._stream: list[Fix] = []
+        self._last_yaw: float | None = None
+        self._rules = {r.sensor: r for r in config.rejection}
+        self._channels: dict[tuple[str, str], SensorChannel] = {}
+        self._xlog_header = False
+
+    @property
+    def online(self) -> bool:
+        return self.failure is None
+
+    # ------------------------------------------------------------------ input
+
+    def add(self, reading: Reading, now: float) -> None:
+        t = reading.obs.t
+        if self.failure is not None:
+            self._log(reading, "offline")
+        elif t > now + FUTURE_TOLERANCE:
+            self._log(reading, "future")
+        elif self.horizon is not None and t < self.horizon:
+            self._log(reading, "late", f"{self.horizon - t:.2f}s")
+        else:
+            heapq.heappush(self._queue, (t, next(self._seq), reading))
+
+    # ------------------------------------------------------------------ the tick
+
+    def step(self, now: float) -> Estimate | None:
+        self.new_fixes = []
+        if self.failure is not None:
+            return None
+        horizon = now - self.config.lag
+        if self.horizon is not None and horizon < self.horizon:
+            horizon = self.horizon
+        if self.last_fix_time is None:
+            self.last_fix_time = horizon
+        try:
+            if self.ekf is None and self.config.start is not None:
+                self._boot_at_start(horizon)
+            while self._queue and self._queue[0][0] <= horizon:
+                t = self._queue[0][0]
+                batch = []
+                while self._queue and self._queue[0][0] == t:
+                    batch.append(heapq.heappop(self._queue)[2])
+                self._slice(t, batch)
+            self.horizon = horizon
+            if self.ekf is not None:
+                self.ekf.advance(horizon)
+                fixed = fixed_observations(horizon, self.config.fixed_depth,
+                                           self.config.fixed_heading, self.config.fixed_tide)
+                if fixed:
+                    result = self.ekf.update(fixed)
+                    for v in result.verdicts:
+                        if not v.accepted:
+                            self.olog.append(f"{horizon:.3f} fixed {type(v.obs).__name__} "
+                                             f"{describe(v.obs)} rejected {v.d2:.2f}")
+            self._check_lsq(horizon)
+        except NavigationFailure as exc:
+            self._fail(str(exc))
+            return None
+        if self.ekf is None:
+            return None
+        self._xlog()
+        self.warnings.extend(self.ekf.warnings)
+        self.ekf.warnings.clear()
+        return self.ekf.forecast(now)
+
+    def _slice(self, t: float, batch: list[Reading]) -> None:
+        kept = [r for r in batch if self._channel_agrees(r)]
+        for r in kept:
+            if isinstance(r.obs, Yaw):
+                self._last_yaw = r.obs.z
+        fixes: list[Fix] = []
+        if self.lsq is not None:
+            for r in kept:
+                if isinstance(r.obs, Range):
+                    fix = self.lsq.add(r.obs)
+                    if fix is not None:
+                        fixes.append(fix)
+        self.new_fixes.extend(fixes)
+        self.fixes += len(fixes)
+        if fixes:
+            self.last_fix_time = max(f.t for f in fixes)
+        if self.ekf is None:
+            self._try_boot(t, kept, fixes)
+            if self.ekf is None:
+                for r in kept:
+                    self._log(r, "waiting")
+                return
+        ekf = self.ekf
+        ekf.advance(t)
+        for fix in fixes:
+            if self.monitor.check(fix, ekf.x[0, 0], ekf.x[1, 0]):
+                ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA),
+                                 yaw=self._last_yaw)
+                self.reinitialisations += 1
+        if not kept:
+            return
+        result = ekf.update([r.obs for r in kept])
+        for r, verdict in zip(kept, result.verdicts, strict=True):
+            self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
+
+    def _channel_agrees(self, r: Reading) -> bool:
+        rule = self._rules.get(r.sensor.name)
+        if rule is None or not r.channel:
+            return True
+        key = (r.sensor.name, r.channel)
+        channel = self._channels.get(key)
+        if channel is None:
+            channel = self._channels[key] = SensorChannel(rule.points, rule.tolerance)
+        if channel.test(r.obs.t, r.raw):
+            return True
+        self._log(r, "outlier")
+        return False
+
+    # ------------------------------------------------------------------ boot and watch
+
+    def _boot_at_start(self, t: float) -> None:
+        s = self.config.start
+        assert s is not None
+        self.ekf = EKF(t, s.x, s.y, s.yaw, beacons=self.config.beacons, config=self.config.ekf,
+                       sigma_xy=s.sigma_xy, sigma_yaw=s.sigma_yaw)
+        if self.ekf.i_z is not None:
+            self.ekf.x[self.ekf.i_z, 0] = s.z
+
+    def _try_boot(self, t: float, readings: list[Reading], fixes: list[Fix]) -> None:
+        yaw = self._last_yaw if self._last_yaw is not None else 0.0
+        sigma_yaw = None if self._last_yaw is not None else math.pi
+        if not self.config.beacons:
+            for r in readings:
+                if isinstance(r.obs, Position):
+                    self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, config=self.config.ekf,
+                                   sigma_xy=max(2.0 * r.obs.sigma, 1.0), sigma_yaw=sigma_yaw)
+                    self.warnings.append(f"EKF started at the first {r.sensor.name} fix "
+                                         f"({r.obs.x:.1f}, {r.obs.y:.1f})")
+                    return
+            return
+        for fix in fixes:
+            if self._stream and math.hypot(fix.x - self._stream[-1].x,
+                                           fix.y - self._stream[-1].y) > BOOT_AGREEMENT:
+                self._stream.clear()
+            self._stream.append(fix)
+        if len(self._stream) < BOOT_FIXES:
+            return
+        fix = self._stream[-1]
+        beacons = list(self.config.beacons)
+        if self.lsq is not None and self.lsq.estimate_offset:
+            beacons = [Beacon(b.name, b.x, b.y, b.z, b.offset + fix.offset, b.turnaround)
+                       for b in beacons]
+        self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.config.ekf,
+                       sigma_xy=max(fix.sigma, fix.rms, BOOT_SIGMA), sigma_yaw=sigma_yaw)
+        self.warnings.append(f"EKF booted from the LSQ at ({fix.x:.1f}, {fix.y:.1f})")
+
+    def _check_lsq(self, horizon: float) -> None:
+        timeout = self.config.lsq_timeout
+        if self.lsq is None or timeout is None or self.last_fix_time is None:
+            return
+        silent = horizon - self.last_fix_time
+        if silent > timeout:
+            raise NavigationFailure(
+                f"no LSQ fix for {silent:.0f} s (limit {timeout:g} s): ranges to "
+                f"{self.lsq.observable} beacons are needed; navigation is unobservable")
+
+    def _fail(self, why: str) -> None:
+        self.failure = why
+        self._queue.clear()
+        self.olog.append(f"# navigation failure: {why}")
+        self.warnings.append(f"navigation failure: {why}; the filters are off-line")
+
+    # ------------------------------------------------------------------ logs
+
+    def _log(self, r: Reading, fate: str, detail: str = "") -> None:
+        self.counts[fate] = self.counts.get(fate, 0) + 1
+        self.olog.append(f"{r.obs.t:.3f} {r.sensor.name} {r.sensor.type} "
+                         f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
+
+    def state_names(self) -> list[str]:
+        ekf = self.ekf
+        if ekf is None:
+            return []
+        names = ["X", "Y", "H", "X_VEL", "Y_VEL", "H_VEL"]
+        extra: dict[int, str] = {}
+        if ekf.i_z is not None and ekf.i_vz is not None:
+            extra[ekf.i_z], extra[ekf.i_vz] = "Z", "Z_VEL"
+        if ekf.i_bias is not None:
+            extra[ekf.i_bias] = "YAW_BIAS"
+        if ekf.i_tide is not None:
+            extra[ekf.i_tide] = "TIDE"
+        if ekf.i_scale is not None:
+            extra[ekf.i_scale] = "RANGE_SCALE"
+        for name in ekf.beacons:
+            extra[ekf.offset_index(name)] = f"OFFSET_{name}"
+        return names + [extra[i] for i in sorted(extra)]
+
+    def _xlog(self) -> None:
+        ekf = self.ekf
+        assert ekf is not None
+        if not self._xlog_header:
+            self._xlog_header = True
+            names = self.state_names()
+            self.xlog.append("# t " + " ".join(names) + " | "
+                             + " ".join(f"SIGMA_{n}" for n in names))
+        x = ekf.x[:, 0]
+        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
+        self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
+                         + " ".join(f"{v:.4g}" for v in sigma))

@@ -1,0 +1,360 @@
+"""pNav's sensor declarations (spec 2.2.1) and how bus variables become observations.
+
+A mission declares each sensor once, in the pNav block::
+
+    SENSOR_XY          = GPS  -> gps       @ 0,1.5,2        ~ 2.0
+    SENSOR_ORIENTATION = INS  -> compass   @ 0,0,0, 3.0     ~ 2.0
+    SENSOR_BODY_VEL    = DVL  -> dvl       @ 0,2,-0.5       ~ 0.02, 0.02
+    SENSOR_RANGE       = RNG  -> uwb       @ 0,0,1          ~ 0.3
+    SENSOR_LBL         = LBL  -> lbl       @ 0,0,-0.5       ~ 0.0005
+    SENSOR_DEPTH       = DEPTH -> pressure @ 0,0,0          ~ 0.05
+
+Read it as: a sensor of that type, whose data arrive as ``<source>_*`` bus variables, named
+``name`` (in logs), mounted at ``x,y,z`` in body coordinates (MOOS: x starboard, y forward,
+z up; metres) and turned by ``twist`` degrees clockwise about the body z axis, with 1-σ noise.
+
+What each type reads (``S`` is the source) and the unit of its noise:
+
+============  ==========================================================  ================
+XY            ``S_X``, ``S_Y`` posted with the same time stamp (m)           m
+ORIENTATION   ``S_YAW`` (rad, yaw = −heading), else ``S_HEADING`` (deg)      deg
+DEPTH         ``S_DEPTH`` (m below the surface)                              m
+ALTITUDE      ``S_ALTITUDE`` (m above the bottom; not fused: no seabed       m
+              model, passed on as ``EKF_ALTITUDE`` of the vehicle's origin)
+BODY_VEL      ``S_VX_BODY`` forward, ``S_VY_BODY`` starboard (m/s),          m/s, m/s, deg/s
+              ``S_YAW_VEL`` (rad/s); any of them, same time stamp
+LBL           ``S_TWTT_<beacon>``: two-way travel time (s, turn-around       s
+              included) stamped with the ping time
+RANGE         ``S_RANGE_<beacon>`` (m)                                       m
+============  ==========================================================  ================
+
+The serial instruments (``iSerial_*``) and the MAVLink bridge (``GPS_*``, ``INS_*``, ``AP_*``,
+``WHEEL_*``) already post these names. Beacons are declared in the same block
+(``BEACON = id @ x,y,z [TAT=s]``, the turn-around time of an acoustic transponder) and fixed
+observations (spec 2.2.8) as ``FIXEDDEPTH``/``FIXEDHEADING``/``FIXEDTIDE = value @ sigma``.
+
+An acoustic two-way travel time is explained as a range at the middle of its flight: the mean
+of the outbound and return slant ranges (c·(twtt − turn-around)/2) equals, for a vehicle moving
+straight and steadily, the range from its position half-way through the flight, so it is
+stamped ``ping time + twtt/2``. That is why it arrives seconds old and needs ``EKF_LAG``.
+
+Pure logic: :class:`SensorReader` turns one tick's mail into observations; no clock, no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any, ClassVar, Final
+
+from mavhelm.core.bus import Message
+from mavhelm.core.geodesy import heading_to_yaw
+from mavhelm.core.mission import Entry
+from mavhelm.core.params import Kind, Number
+from mavhelm.nav.ekf import (
+    Beacon,
+    BodyVelocity,
+    Depth,
+    Lever,
+    Observation,
+    Position,
+    Range,
+    Tide,
+    Yaw,
+)
+
+SENSOR_TYPES: Final = ("XY", "ORIENTATION", "DEPTH", "ALTITUDE", "BODY_VEL", "LBL", "RANGE")
+
+NOISE_UNITS: Final = {"XY": ("m",), "ORIENTATION": ("deg",), "DEPTH": ("m",),
+                      "ALTITUDE": ("m",), "BODY_VEL": ("m/s", "m/s", "deg/s"),
+                      "LBL": ("s",), "RANGE": ("m",)}
+"""Unit of each noise a sensor line may give (BODY_VEL: forward, starboard, yaw rate)."""
+
+DEFAULT_NOISE: Final = {"XY": (3.0,), "ORIENTATION": (2.0,), "DEPTH": (0.1,),
+                        "ALTITUDE": (0.1,), "BODY_VEL": (0.05, 0.1, 1.0),
+                        "LBL": (0.001,), "RANGE": (1.0,)}
+"""1-σ noise of a sensor line that gives none, in the units above. BODY_VEL's starboard
+default is wider than its forward one: for wheel odometry the "does not crab" constraint."""
+
+SOUND_SPEED: Final = 1500.0
+"""m/s: speed of sound in sea water, for LBL travel times (``LBL_SOUND_SPEED``)."""
+
+LEVER_LIMIT: Final = 100.0
+"""m: a lever arm longer than this is a typo, not a vessel."""
+
+_SOURCE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+_NAME = re.compile(r"[A-Za-z0-9_.\-]+")
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """One ``SENSOR_*`` line: type, source prefix, name, lever arm, twist (deg), noise."""
+
+    type: str
+    source: str
+    name: str
+    lever: Lever = (0.0, 0.0, 0.0)
+    twist: float = 0.0
+    noise: tuple[float, ...] = ()
+
+    def sigma(self, k: int = 0) -> float:
+        """The k-th noise in the declared unit, defaults filling what the line left out."""
+        given = self.noise or DEFAULT_NOISE[self.type]
+        return given[k] if k < len(given) else DEFAULT_NOISE[self.type][k]
+
+
+def _numbers(text: str, entry: Entry, what: str, kind: Number) -> list[float]:
+    return [kind.parse_text(part, entry, f"{entry.key} {what}") for part in text.split(",")]
+
+
+@dataclass(frozen=True)
+class SensorLine(Kind):
+    """``SOURCE -> name @ x,y,z[,twist] [~ noise[,noise…]]`` for one sensor type."""
+
+    type: str
+    label: ClassVar[str] = "SOURCE -> name @ x,y,z[,twist] ~ noise"
+
+    def describe(self) -> str:
+        units = ", ".join(NOISE_UNITS[self.type])
+        return f"SOURCE -> name @ x,y,z[,twist deg] ~ noise ({units})"
+
+    def check_value(self, value: Any) -> bool:
+        return isinstance(value, SensorSpec)
+
+    def parse(self, entry: Entry) -> SensorSpec:
+        text = entry.value.replace("→", "->")
+        head, arrow, rest = text.partition("->")
+        source = head.strip()
+        if not arrow or not _SOURCE.fullmatch(source):
+            raise entry.error(f"{entry.key} expects {self.describe()}, got {entry.value!r}")
+        rest, tilde, noise_text = rest.partition("~")
+        name, at, geometry = (part.strip() for part in rest.partition("@"))
+        if not _NAME.fullmatch(name):
+            raise entry.error(f"{entry.key}: the sensor needs a one-word name after '->', "
+                              f"got {name!r}")
+        lever: Lever = (0.0, 0.0, 0.0)
+        twist = 0.0
+        if at:
+            texts = geometry.split(",")
+            if len(texts) not in (3, 4):
+                raise entry.error(f"{entry.key}: expected x,y,z[,twist] after '@', "
+                                  f"got {geometry!r}")
+            values = _numbers(",".join(texts[:3]), entry, "lever arm",
+                              Number(-LEVER_LIMIT, LEVER_LIMIT))
+            lever = (values[0], values[1], values[2])
+            if len(texts) == 4:
+                twist = Number(-180.0, 360.0).parse_text(texts[3], entry,
+                                                         f"{entry.key} twist (deg)")
+        noise: tuple[float, ...] = ()
+        if tilde:
+            units = NOISE_UNITS[self.type]
+            noise = tuple(_numbers(noise_text, entry, "noise",
+                                   Number(0.0, 1e4, lo_open=True)))
+            if len(noise) > len(units):
+                raise entry.error(f"{entry.key}: at most {len(units)} noise value(s) "
+                                  f"({', '.join(units)}), got {len(noise)}")
+        return SensorSpec(self.type, source.upper(), name, lever, twist, noise)
+
+
+@dataclass(frozen=True)
+class BeaconLine(Kind):
+    """``id @ x,y,z [TAT=seconds]``: a range or LBL beacon at a surveyed position."""
+
+    label: ClassVar[str] = "id @ x,y,z [TAT=s]"
+
+    def describe(self) -> str:
+        return "id @ x,y,z in metres (z up: seabed beacons negative) [TAT=turn-around s]"
+
+    def check_value(self, value: Any) -> bool:
+        return isinstance(value, Beacon)
+
+    def parse(self, entry: Entry) -> Beacon:
+        ident, at, rest = (part.strip() for part in entry.value.partition("@"))
+        if not at or not _NAME.fullmatch(ident):
+            raise entry.error(f"{entry.key} expects {self.describe()}, got {entry.value!r}")
+        cut = rest.upper().find("TAT")
+        rest, tat_text = (rest, "") if cut < 0 else (rest[:cut], rest[cut + 3:])
+        values = _numbers(rest.rstrip().rstrip(","), entry, "position",
+                          Number(-1e5, 1e5))
+        if len(values) not in (2, 3):
+            raise entry.error(f"{entry.key} expects x,y or x,y,z after '@', got {rest!r}")
+        tat = 0.0
+        if tat_text:
+            tat_text = tat_text.strip()
+            if not tat_text.startswith("="):
+                raise entry.error(f"{entry.key}: write the turn-around as TAT=seconds")
+            tat = Number(0.0, 10.0).parse_text(tat_text[1:], entry, f"{entry.key} TAT")
+        return Beacon(ident, values[0], values[1], values[2] if len(values) == 3 else 0.0,
+                      turnaround=tat)
+
+
+@dataclass(frozen=True)
+class FixedValue:
+    """A fixed observation (spec 2.2.8): ``value @ sigma``."""
+
+    value: float
+    sigma: float
+
+
+@dataclass(frozen=True)
+class FixedLine(Kind):
+    """``value @ sigma`` within the given range."""
+
+    value_kind: Number
+    unit: str
+
+    def describe(self) -> str:
+        return f"value @ sigma ({self.unit}), value {self.value_kind.describe()}"
+
+    def check_value(self, value: Any) -> bool:
+        return value is None or isinstance(value, FixedValue)
+
+    def parse(self, entry: Entry) -> FixedValue:
+        value_text, at, sigma_text = entry.value.partition("@")
+        if not at:
+            raise entry.error(f"{entry.key} expects value @ sigma ({self.unit}), "
+                              f"got {entry.value!r}")
+        value = self.value_kind.parse_text(value_text, entry, entry.key)
+        sigma = Number(0.0, 1e4, lo_open=True).parse_text(sigma_text, entry,
+                                                          f"{entry.key} sigma")
+        return FixedValue(value, sigma)
+
+
+def fixed_observations(t: float, depth: FixedValue | None, heading: FixedValue | None,
+                       tide: FixedValue | None) -> list[Observation]:
+    """The fixed observations declared, as observations at ``t``."""
+    out: list[Observation] = []
+    if depth is not None:
+        out.append(Depth(t, depth.value, depth.sigma))
+    if heading is not None:
+        out.append(Yaw(t, heading_to_yaw(heading.value), math.radians(heading.sigma)))
+    if tide is not None:
+        out.append(Tide(t, tide.value, tide.sigma))
+    return out
+
+
+@dataclass(frozen=True)
+class Reading:
+    """An observation and the sensor it came from (for logs and per-channel rejection);
+    ``channel`` is the beacon for LBL and RANGE sensors."""
+
+    sensor: SensorSpec
+    obs: Observation
+    channel: str = ""
+    raw: float = math.nan
+
+
+class SensorReader:
+    """Turns a tick's mail into :class:`Reading`\\ s for the declared sensors.
+
+    Components that belong together (an XY fix's X and Y, a body velocity's parts) are joined
+    by time stamp within one tick's mail, which is how every reader posts them; a lone half
+    is counted in ``incomplete`` and dropped. Non-finite values are counted in ``bad``.
+    ALTITUDE readings are returned in ``altitudes`` (not fused).
+    """
+
+    def __init__(self, sensors: Iterable[SensorSpec], beacons: Iterable[Beacon],
+                 sound_speed: float = SOUND_SPEED) -> None:
+        self.sensors = list(sensors)
+        self.beacons = {b.name: b for b in beacons}
+        self.sound_speed = sound_speed
+        self.incomplete = 0
+        self.bad = 0
+        self._routes: dict[str, list[tuple[SensorSpec, str, str]]] = {}
+        for sensor in self.sensors:
+            for variable, part, channel in self._variables(sensor):
+                self._routes.setdefault(variable, []).append((sensor, part, channel))
+
+    def _variables(self, sensor: SensorSpec) -> list[tuple[str, str, str]]:
+        s = sensor.source
+        if sensor.type == "XY":
+            return [(f"{s}_X", "x", ""), (f"{s}_Y", "y", "")]
+        if sensor.type == "ORIENTATION":
+            return [(f"{s}_YAW", "yaw", ""), (f"{s}_HEADING", "heading", "")]
+        if sensor.type == "DEPTH":
+            return [(f"{s}_DEPTH", "depth", "")]
+        if sensor.type == "ALTITUDE":
+            return [(f"{s}_ALTITUDE", "altitude", "")]
+        if sensor.type == "BODY_VEL":
+            return [(f"{s}_VX_BODY", "forward", ""), (f"{s}_VY_BODY", "starboard", ""),
+                    (f"{s}_YAW_VEL", "yaw_rate", "")]
+        suffix = "TWTT" if sensor.type == "LBL" else "RANGE"
+        return [(f"{s}_{suffix}_{b}", suffix.lower(), b) for b in self.beacons]
+
+    def subscriptions(self) -> set[str]:
+        return set(self._routes)
+
+    def read(self, mail: Iterable[Message]) -> tuple[list[Reading], list[tuple[float, float]]]:
+        """Readings of this mail, and the altitudes heard as (time, altitude of the origin)."""
+        parts: dict[tuple[int, float], dict[str, float]] = {}
+        readings: list[Reading] = []
+        altitudes: list[tuple[float, float]] = []
+        for msg in mail:
+            routes = self._routes.get(msg.name)
+            if not routes or not msg.is_double:
+                continue
+            if not math.isfinite(msg.double):
+                self.bad += 1
+                continue
+            for sensor, part, channel in routes:
+                if sensor.type in ("LBL", "RANGE"):
+                    reading = self._ranging(sensor, channel, msg.double, msg.time)
+                    if reading is not None:
+                        readings.append(reading)
+                elif sensor.type == "ALTITUDE":
+                    altitudes.append((msg.time, msg.double - sensor.lever[2]))
+                else:
+                    parts.setdefault((id(sensor), msg.time), {})[part] = msg.double
+        by_id = {id(s): s for s in self.sensors}
+        for (key, t), values in parts.items():
+            reading = self._joined(by_id[key], t, values)
+            if reading is not None:
+                readings.append(reading)
+        readings.sort(key=lambda r: r.obs.t)
+        return readings, altitudes
+
+    def _ranging(self, sensor: SensorSpec, beacon: str, value: float,
+                 t: float) -> Reading | None:
+        if value <= 0:
+            self.bad += 1
+            return None
+        if sensor.type == "RANGE":
+            return Reading(sensor, Range(t, beacon, value, sensor.sigma(), sensor.lever),
+                           beacon, value)
+        c = self.sound_speed
+        flight = value - self.beacons[beacon].turnaround
+        if flight <= 0:
+            self.bad += 1
+            return None
+        obs = Range(t + value / 2.0, beacon, c * flight / 2.0, c * sensor.sigma() / 2.0,
+                    sensor.lever)
+        return Reading(sensor, obs, beacon, value)
+
+    def _joined(self, sensor: SensorSpec, t: float, values: dict[str, float]) -> Reading | None:
+        if sensor.type == "XY":
+            if "x" not in values or "y" not in values:
+                self.incomplete += 1
+                return None
+            return Reading(sensor, Position(t, values["x"], values["y"], sensor.sigma(),
+                                            sensor.lever))
+        if sensor.type == "ORIENTATION":
+            if "yaw" in values:
+                yaw = values["yaw"]
+            else:
+                yaw = heading_to_yaw(values["heading"])
+            yaw += math.radians(sensor.twist)  # the sensor reads the heading of its own axis
+            return Reading(sensor, Yaw(t, math.remainder(yaw, 2 * math.pi),
+                                       math.radians(sensor.sigma())))
+        if sensor.type == "DEPTH":
+            return Reading(sensor, Depth(t, values["depth"], sensor.sigma(), sensor.lever))
+        forward, starboard = values.get("forward"), values.get("starboard")
+        if sensor.twist and forward is not None and starboard is not None:
+            # the sensor's axes are turned by twist (clockwise) from the body's
+            a = math.radians(sensor.twist)
+            forward, starboard = (forward * math.cos(a) - starboard * math.sin(a),
+                                  forward * math.sin(a) + starboard * math.cos(a))
+        return Reading(sensor, BodyVelocity(
+            t, forward, starboard, values.get("yaw_rate"), sensor.sigma(0), sensor.sigma(1),
+            math.radians(sensor.sigma(2)), sensor.lever))
