@@ -211,16 +211,46 @@ def test_dpt_and_dbt_give_depth_with_the_dpt_offset_and_altitude_below_the_trans
 def test_dvl_lbl_and_ranges() -> None:
     rig = Rig("PMVHDVL,PMVHLBL,PMVHRNG", name="ac")
     rig.feed(nmea.pmvhdvl(12.2, 1.501, -0.016, 0.004, 17.66),
-             nmea.pmvhlbl(10.0, [("1", 0.301211), ("2", None), ("B3", 0.5)]),
+             nmea.pmvhlbl(T0 - 3.0, [("1", 0.301211), ("2", None), ("B3", 0.5)]),
              nmea.pmvhrng(12.5, "2", 204.566))
-    v = rig.values(rig.tick(0.1))
+    mail = rig.tick(0.1)
+    v = rig.values(mail)
     assert (v["AC_VX_BODY"], v["AC_VY_BODY"], v["AC_VZ_BODY"]) == (1.501, -0.016, 0.004)
     assert v["AC_ALTITUDE"] == 17.66
     assert v["AC_TWTT_1"] == 0.301211 and v["AC_TWTT_B3"] == 0.5 and "AC_TWTT_2" not in v
     assert v["AC_RANGE_2"] == 204.566
+    stamps = {m.name: m.time for m in mail}
+    assert stamps["AC_TWTT_1"] == stamps["AC_TWTT_B3"] == T0 - 3.0  # the ping, not the read
+    assert stamps["AC_RANGE_2"] == stamps["AC_VX_BODY"] == T0 + 0.1
+    assert "AC_WARNING" not in v and rig.app.stats["lbl_read_time"] == 0
     rig.feed(nmea.pmvhdvl(12.4, None, None, None, None))  # no bottom lock: no velocity
     assert not [m for m in rig.tick(0.1) if m.name.startswith("AC_V")]
     assert rig.drops() == {} and rig.app.stats["sentences"] == 4
+
+
+def test_an_lbl_ping_time_off_our_clock_is_not_trusted_counted_and_said_once() -> None:
+    rig = Rig("PMVHLBL", name="lbl")
+    now = T0 + 1.0
+    rig.feed(nmea.pmvhlbl(now + 0.5, [("1", 0.3)]),  # from the future
+             nmea.pmvhlbl(now - 30.5, [("1", 0.3)]))  # older than 30 s
+    mail = rig.tick(1.0)
+    assert [m.time for m in mail if m.name == "LBL_TWTT_1"] == [now, now]
+    warnings = [m.value for m in mail if m.name == "LBL_WARNING"]
+    assert len(warnings) == 1 and f"t0={now + 0.5:.3f}" in warnings[0]
+    assert rig.app.stats["lbl_read_time"] == 2
+    rig.feed(nmea.pmvhlbl(now - 30.0, [("1", 0.3)]))  # exactly 30 s old: trusted, re-arms
+    mail = rig.tick(0.0)
+    assert [m.time for m in mail if m.name == "LBL_TWTT_1"] == [now - 30.0]
+    assert not [m for m in mail if m.name == "LBL_WARNING"]
+    rig.feed(nmea.sentence("PMVHLBL", ["", "1", "0.300000"]),  # no t0, and t0 "nan"
+             nmea.pmvhlbl(math.nan, [("2", 0.4)]))
+    mail = rig.tick(0.5)
+    assert [(m.name, m.time) for m in mail if m.name.startswith("LBL_TWTT")] == \
+        [("LBL_TWTT_1", now + 0.5), ("LBL_TWTT_2", now + 0.5)]
+    warnings = [m.value for m in mail if m.name == "LBL_WARNING"]
+    assert len(warnings) == 1 and "t0=(empty)" in warnings[0]
+    assert rig.app.stats["lbl_read_time"] == 4 and rig.app.stats["sentences"] == 5
+    assert rig.drops() == {}
 
 
 def test_doc_examples_parse_and_a_lower_case_checksum_is_accepted() -> None:

@@ -10,6 +10,39 @@ The helm is online only while the link is up (a HEARTBEAT from the autopilot wit
 ground-station mode switch is the spec's iRemote. In GUIDED, ArduPilot ignores RC override, so
 the ``guided`` actuation profile sends body yaw rate + thrust (type_mask 0x03), which Rover turns
 into turn rate and speed = thrust × WP_SPEED.
+
+What the autopilot's telemetry becomes (local frame of the mission's origin: X east, Y north):
+
+====================  ================================================================
+HEARTBEAT             ``AP_MODE`` (Rover mode name), ``AP_ARMED`` 1/0
+GPS_RAW_INT           ``GPS_FIX``; with a 3-D fix ``GPS_X``, ``GPS_Y`` (m), ``GPS_SPEED``
+                      (m/s), ``GPS_HEADING`` (deg, course over ground)
+ATTITUDE              ``INS_YAW`` (rad, yaw = −heading), ``INS_HEADING`` (deg),
+                      ``INS_PITCH``, ``INS_ROLL`` (rad), ``INS_YAW_VEL`` (rad/s)
+GLOBAL_POSITION_INT   ``AP_X``, ``AP_Y`` (m), ``AP_SPEED`` (m/s), ``AP_HEADING`` (deg),
+                      ``AP_YAW`` (rad): the autopilot's EKF, while it has a position
+DISTANCE_SENSOR       pointing down (orientation 25, PITCH_270): ``AP_ALTITUDE`` (m above
+                      the bottom, or the ground); any other way: ``AP_DISTANCE_<n>`` (m),
+                      ``n`` the MAV_SENSOR_ORIENTATION number, as in ``RNGFNDx_ORIENT``
+                      (``AP_DISTANCE_0`` forward, ``AP_DISTANCE_24`` up)
+WHEEL_DISTANCE        ``WHEEL_VX_BODY`` (m/s, forward): the wheels' mean distance change
+                      over the time since the previous message
+SIMSTATE              ``TRUTH_X``, ``TRUTH_Y`` (m), ``TRUTH_HEADING`` (deg): a simulator's
+                      ground truth, logged for accuracy reports on SITL
+STATUSTEXT            ``AP_STATUSTEXT``; COMMAND_ACK: ``AP_COMMAND_ACK``
+====================  ================================================================
+
+DISTANCE_SENSOR, WHEEL_DISTANCE and SIMSTATE are not in the default streams (a boat without a
+sounder would be warned about them every time): ArduPilot lists DISTANCE_SENSOR in its EXTRA3
+stream, SIMSTATE in EXTRA1 and WHEEL_DISTANCE in EXTRA1 or EXTRA3 (by version), sent at its
+SRn_EXTRA* rates; or ask with ``Stream = DISTANCE_SENSOR@5``. ArduPilot's SITL has a
+rangefinder with ``RNGFND1_TYPE 100`` (``RNGFND1_ORIENT 25`` down; the rover model reads 1.0 m
+down and forward, the motorboat has no data) and wheel encoders with ``WENC_TYPE 10``,
+``WENC2_TYPE 10`` and ``WENC_POS_Y``/``WENC2_POS_Y`` set; but Rover 4.8-dev sends no
+WHEEL_DISTANCE, in any stream, and refuses SET_MESSAGE_INTERVAL for it ("No ap_message for
+mavlink id (9000)"), so wheel odometry from ArduPilot is untested against the binary.
+A message whose values are not finite or are impossible is refused whole (``MAVLINK_ERROR``,
+counted in ``MAVLINK_BAD_PACKETS``), like any other bad input.
 """
 
 from __future__ import annotations
@@ -76,6 +109,16 @@ CMD_REMOTE_FLAG = mavlink.MAV_CMD_USER_2
 
 FAR_FROM_ORIGIN_M = 5000.0
 """A GPS fix farther than this from the mission's origin is warned about."""
+
+DOWNWARD = mavlink.MAV_SENSOR_ROTATION_PITCH_270
+"""DISTANCE_SENSOR orientation of a sounder or a ground rangefinder: it gives AP_ALTITUDE."""
+
+WHEEL_MAX_SPEED = 50.0
+"""m/s: a wheel-distance speed beyond this is a counter that jumped, not a vehicle moving."""
+WHEEL_MAX_DISTANCE = 1e9
+"""m: a cumulative wheel distance beyond this is garbage."""
+WHEEL_MAX_INTERVAL_S = 5.0
+"""A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
 
 STREAM_GRACE_S = 5.0
 """How long after the link comes up every requested stream must have been heard once."""
@@ -211,6 +254,56 @@ class BridgeConfig:
         return cfg
 
 
+def distance_reading(msg: mavlink.MAVLink_distance_sensor_message) -> float | None:
+    """A DISTANCE_SENSOR's range in metres, or None when it has no reading to give.
+
+    A reading outside the sensor's own [min_distance, max_distance] is the sensor saying it
+    sees nothing within its range (too close, or nothing there), and 65535 or a max_distance of
+    0 means "no reading": none of these is a distance, and a rangefinder out of range is normal
+    (a sounder over deep water), not an error, so they are left out without a word.
+    """
+    current = int(msg.current_distance)
+    if current == _UNKNOWN_U16 or msg.max_distance == 0:
+        return None
+    if not msg.min_distance <= current <= msg.max_distance:
+        return None
+    return current / 100.0
+
+
+@dataclass
+class WheelOdometry:
+    """WHEEL_DISTANCE's cumulative wheel distances turned into a forward speed.
+
+    The speed is the mean over the wheels of their distance change, divided by the time between
+    two messages: wheels on either side of a turning vehicle cancel out in the mean. The first
+    message only starts the clock; so does a time going backwards (the autopilot rebooted, or
+    on a 32-bit board ArduPilot's ``1000UL * millis()`` wrapped, every 71.6 minutes), a
+    repeated time, a change in the number of wheels or a gap over WHEEL_MAX_INTERVAL_S.
+    """
+
+    last: tuple[int, tuple[float, ...]] | None = None
+
+    def speed(self, time_usec: int, count: int, distance: list[float]) -> float | None:
+        """Forward speed (m/s) since the previous message; raises ValueError on a message no
+        wheel could produce."""
+        if not 0 <= count <= len(distance):
+            raise ValueError(f"WHEEL_DISTANCE count {count} (at most {len(distance)} wheels)")
+        wheels = tuple(float(d) for d in distance[:count])
+        if not all(math.isfinite(d) and abs(d) <= WHEEL_MAX_DISTANCE for d in wheels):
+            raise ValueError(f"wheel distances {wheels} are not finite metres")
+        previous, self.last = self.last, (time_usec, wheels)
+        if previous is None or not wheels or len(previous[1]) != len(wheels):
+            return None
+        dt = (time_usec - previous[0]) / 1e6
+        if not 0.0 < dt <= WHEEL_MAX_INTERVAL_S:
+            return None
+        moved = sum(d - p for d, p in zip(wheels, previous[1], strict=True)) / len(wheels)
+        speed = moved / dt
+        if abs(speed) > WHEEL_MAX_SPEED:
+            raise ValueError(f"wheel speed {speed:.1f} m/s in {dt:g} s: a counter jumped")
+        return speed
+
+
 @dataclass
 class HandBack:
     """Giving the vehicle back to the autopilot at the end of the mission: DO_SET_MODE,
@@ -298,6 +391,7 @@ class MavlinkBridge:
         self._streams_checked = False
         self._next_heartbeat = 0.0
         self._boot_time: float | None = None
+        self.wheels = WheelOdometry()
 
     # -- input -----------------------------------------------------------------------------
 
@@ -311,20 +405,25 @@ class MavlinkBridge:
         if self.link.generation != self._generation:
             self._forget_autopilot()
         for msg in messages:
-            if msg.get_type() == "BAD_DATA":
-                self.bad_packets += 1
-                continue
-            self.packets += 1
             # An autopilot clock moves as its stamps are read: a message is heard at the
             # clock's time now, not at the start of the tick (else a live link would look
             # seconds silent while the clock learns how fast the autopilot runs).
             now = max(now, clock.now())
-            try:
-                self._handle(msg, now)
-            except (ValueError, TypeError, AttributeError, OverflowError) as exc:
-                self.bad_packets += 1
-                self.bus.notify("MAVLINK_ERROR", f"{msg.get_type()}: {exc}", self.input.name)
+            self.take(msg, now)
         self._update_link(max(now, clock.now()))
+
+    def take(self, msg: mavlink.MAVLink_message, now: float) -> None:
+        """One message heard at ``now``: its variables posted, or it is counted as bad. Public
+        so a telemetry log (``tlog``) goes through the very conversion a live link does."""
+        if msg.get_type() == "BAD_DATA":
+            self.bad_packets += 1
+            return
+        self.packets += 1
+        try:
+            self._handle(msg, now)
+        except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+            self.bad_packets += 1
+            self.bus.notify("MAVLINK_ERROR", f"{msg.get_type()}: {exc}", self.input.name)
 
     def _forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts. No actuation until a
@@ -449,6 +548,17 @@ class MavlinkBridge:
             if msg.hdg != _UNKNOWN_U16:
                 post("AP_HEADING", msg.hdg / 100.0)
                 post("AP_YAW", -math.radians(msg.hdg / 100.0))
+        elif kind == "DISTANCE_SENSOR":
+            reading = distance_reading(msg)
+            if reading is not None:
+                post("AP_ALTITUDE" if msg.orientation == DOWNWARD
+                     else f"AP_DISTANCE_{int(msg.orientation)}", reading)
+        elif kind == "WHEEL_DISTANCE":
+            speed = self.wheels.speed(int(msg.time_usec), int(msg.count), list(msg.distance))
+            if speed is not None:
+                post("WHEEL_VX_BODY", speed)
+        elif kind == "SIMSTATE":
+            self._truth(msg)
         elif kind == "EKF_STATUS_REPORT":
             self.ekf_position_ok = bool(msg.flags & mavlink.EKF_POS_HORIZ_ABS)
         elif kind == "PARAM_VALUE":
@@ -472,6 +582,19 @@ class MavlinkBridge:
         elif kind == "STATUSTEXT":
             self._last_statustext = msg.text
             post("AP_STATUSTEXT", msg.text)
+
+    def _truth(self, msg: mavlink.MAVLink_simstate_message) -> None:
+        """A simulator's true pose, for judging the navigator on SITL (never steered by)."""
+        if msg.lat == 0 and msg.lng == 0:
+            return
+        if abs(msg.lat) > 900_000_000 or abs(msg.lng) > 1_800_000_000:
+            raise ValueError(f"lat/lng {msg.lat}/{msg.lng} (1e-7 deg) is not on the earth")
+        if not math.isfinite(msg.yaw):
+            raise ValueError("non-finite yaw")
+        x, y = self.origin.to_local(msg.lat * 1e-7, msg.lng * 1e-7)
+        self.input.notify("TRUTH_X", x)
+        self.input.notify("TRUTH_Y", y)
+        self.input.notify("TRUTH_HEADING", math.degrees(msg.yaw) % 360.0)
 
     def _check_distance(self, x: float, y: float) -> None:
         """Say once if the vehicle is far from the mission's origin: the wrong mission file,
@@ -529,6 +652,10 @@ class MavlinkBridge:
         if status != self.status:
             self.status = status
             self.input.notify("HELM_STATUS", status)
+        self.post_bad_packets()
+
+    def post_bad_packets(self) -> None:
+        """``MAVLINK_BAD_PACKETS`` when the count has changed since it was last posted."""
         if self.bad_packets != self._bad_packets_posted:
             self._bad_packets_posted = self.bad_packets
             self.input.notify("MAVLINK_BAD_PACKETS", float(self.bad_packets))

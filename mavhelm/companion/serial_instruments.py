@@ -26,7 +26,8 @@ disables one instrument by its block. Every setting is declared in ``INSTRUMENT_
 blocks may not share a ``Name`` or a ``Port`` (``instruments_from_mission``), and ``Name`` may
 not be a prefix another app posts (``GPS_*`` and ``INS_*`` are the autopilot's).
 
-Variables (``<N>`` is ``Name``; every value is stamped with the tick in which its line was read):
+Variables (``<N>`` is ``Name``; every value is stamped with the tick in which its line was read,
+except the LBL travel times, stamped with their ping time):
 
 =================  ===================================================================
 GGA                ``<N>_FIX`` (quality 0-8); with quality 1-5 ``<N>_X``, ``<N>_Y`` (m, local
@@ -46,7 +47,14 @@ DBT                the same two, from the metres (else feet, else fathoms) field
                    ``<N>_VZ_BODY`` down (m/s over ground, the sentence's frame); and
                    ``<N>_ALTITUDE`` (m above the bottom) whenever the field is given
 ``$PMVHLBL``       ``<N>_TWTT_<id>``: each beacon's two-way travel time (s, turn-around
-                   included, as sent) for every beacon that replied
+                   included, as sent) for every beacon that replied, stamped with the
+                   sentence's t0, the ping time: the line arrives only when the listen
+                   window closes, seconds after the ping, and pNav's EKF_LAG needs to know
+                   when the vehicle was where the travel times say. A t0 that is not a time
+                   within ``LBL_MAX_AGE_S`` (30 s) before now, or is later than now (an
+                   instrument not on the companion's clock), is not trusted: the travel
+                   times are stamped with the read time, counted (``stats["lbl_read_time"]``)
+                   and said once as ``<N>_WARNING`` (again after a good t0)
 ``$PMVHRNG``       ``<N>_RANGE_<id>`` (m)
 health             ``<N>_OPEN`` 1/0 when the port opens or is lost; ``<N>_DROPPED`` (lines
                    dropped so far) and ``<N>_DROPS`` (``checksum=3,garbage=1``) when they
@@ -112,6 +120,9 @@ SENTENCES = ("GGA", "RMC", "HDT", "DPT", "DBT", "PMVHDVL", "PMVHLBL", "PMVHRNG")
 
 DROP_REASONS = ("overlong", "garbage", "truncated", "checksum", "malformed", "unknown",
                 "backlog")
+
+LBL_MAX_AGE_S = 30.0
+"""An LBL ping time older than this (or later than now) is not the companion's clock."""
 
 MAX_LINE = 1024
 """Bytes a line may reach without a line end before it is dropped (NMEA's own limit is 82)."""
@@ -327,7 +338,7 @@ class SerialInstrument(App):
         self.is_open = False
         self.stats: dict[str, int] = dict.fromkeys(
             ("bytes", "parsed_bytes", "lines", "sentences", "opens", "failures", "sync",
-             *DROP_REASONS), 0)
+             "lbl_read_time", *DROP_REASONS), 0)
         self.last_parsed_bytes = 0
         """Bytes parsed in the last tick (at most ``budget``)."""
         self._buffer = bytearray(DRAIN_CAP)
@@ -342,6 +353,7 @@ class SerialInstrument(App):
         self._dropped_at_valid = 0
         self._said_stale = False
         self._said_far = False
+        self._said_ping_time = False
         self._posted_dropped = 0
         self._fix_time: str | None = None
         self._dpt_offset = 0.0
@@ -651,9 +663,29 @@ class SerialInstrument(App):
             if not _BEACON.fullmatch(beacon):
                 raise _Drop("malformed")
             replies.append((beacon, _optional(twtt, 0.0, 60.0)))
+        stamp = self._ping_time(fields[0], now)
         for beacon, travel in replies:
             if travel is not None:
-                self._post(f"TWTT_{beacon}", travel, now)
+                self._post(f"TWTT_{beacon}", travel, stamp)
+
+    def _ping_time(self, text: str, now: float) -> float:
+        """The LBL ping time t0 when it is a time on our clock within LBL_MAX_AGE_S before now;
+        otherwise ``now``, counted and said once (until a good one re-arms the warning)."""
+        try:
+            ping = float(text)
+        except ValueError:
+            ping = math.nan
+        if math.isfinite(ping) and now - LBL_MAX_AGE_S <= ping <= now:
+            self._said_ping_time = False
+            return ping
+        self.stats["lbl_read_time"] += 1
+        if not self._said_ping_time:
+            self._said_ping_time = True
+            self._post("WARNING", f"$PMVHLBL ping time t0={text or '(empty)'} is not within "
+                       f"{LBL_MAX_AGE_S:g} s before now ({now:.3f}): travel times stamped with "
+                       "the time they were read instead; is the instrument on the companion's "
+                       "clock?", now)
+        return now
 
     def _rng(self, fields: list[str], now: float) -> None:
         if len(fields) < 3 or not _BEACON.fullmatch(fields[1]):
