@@ -1,4 +1,4 @@
-"""The pNav EKF and LSQ (mavhelm.nav.ekf, .lsq, .replay) on synthetic data.
+"""The pNav EKF and LSQ (mavhelm.nav.ekf, .lsq, .fusion) on synthetic data.
 
 The synthetic vehicle drives a circle among four beacons in the MOOS yaw convention (yaw =
 −heading, bow along (−sin H, cos H)); its odometry, orientation sensor and ranges are made
@@ -13,8 +13,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from filterpy.common import Q_continuous_white_noise
+from fusion_rig import replay, track_accuracy
 
-from mavhelm.core.bus import Message
 from mavhelm.nav.ekf import (
     EKF,
     I_H,
@@ -33,14 +33,9 @@ from mavhelm.nav.ekf import (
     odometry,
     white_noise_block,
 )
+from mavhelm.nav.fusion import Start
 from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix, solve
-from mavhelm.nav.replay import (
-    Start,
-    accuracy,
-    observations_from_messages,
-    replay,
-    track_accuracy,
-)
+from mavhelm.nav.replay import accuracy
 
 BEACONS = [Beacon("A", -30.0, -30.0), Beacon("B", 30.0, -30.0), Beacon("C", 30.0, 30.0),
            Beacon("D", -30.0, 30.0)]
@@ -361,24 +356,6 @@ def test_a_diverged_filter_is_reinitialised_to_the_lsq() -> None:
     acc = accuracy(track.t[tail], track.x[tail], track.y[tail], truth[:, 0], truth[:, 1],
                    truth[:, 2])
     assert acc.rms < 1.0
-
-
-def test_observations_from_logged_variables() -> None:
-    msgs = [
-        Message("ODOM_DIST", 0.0, 10.0, "o"), Message("ODOM_DYAW", 0.0, 10.0, "o"),
-        Message("ODOM_DIST", 0.4, 10.2, "o"), Message("ODOM_DYAW", 0.02, 10.2, "o"),
-        Message("ODOM_HEADING", 90.0, 10.2, "o"), Message("RANGE_7", 12.5, 10.1, "r"),
-        Message("RANGE_7", "garbage", 10.15, "r"), Message("GPS_X", 1.0, 10.3, "g"),
-        Message("GPS_Y", 2.0, 10.3, "g"),
-    ]
-    obs = observations_from_messages(msgs, position_vars=("GPS_X", "GPS_Y"))
-    kinds = {type(o).__name__: o for o in obs}
-    assert [o.t for o in obs] == sorted(o.t for o in obs) and len(obs) == 4
-    assert kinds["Range"] == Range(10.1, "7", 12.5)
-    body = kinds["BodyVelocity"]
-    assert (body.t, body.forward, body.yaw_rate) == pytest.approx((10.2, 2.0, 0.1))
-    assert kinds["Yaw"].z == pytest.approx(-math.pi / 2)  # east
-    assert (kinds["Position"].x, kinds["Position"].y) == (1.0, 2.0)
 
 
 def test_accuracy_interpolates_truth_in_time() -> None:

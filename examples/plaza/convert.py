@@ -1,17 +1,22 @@
-"""Convert the Plaza1 range-beacon data set (``Plaza1.mat``) to a MOOS ``.alog``.
+"""Convert the Plaza1 range-beacon data set (``Plaza1.mat``) to a MOOS ``.alog`` and a mission.
 
-Usage: ``python examples/plaza/convert.py IN.mat OUT.alog``
+Usage: ``python examples/plaza/convert.py IN.mat OUT.alog [--mission OUT.moos]``
 
-Variables written (times are the data set's own clock; LOGSTART is its first time):
+Variables written, named as pNav's sensor lines read them (times are the data set's own
+clock; LOGSTART is its first time):
 
-- ``BEACON_<id>``  string ``x=…,y=…`` at the start: the surveyed beacon positions (m)
-- ``ODOM_DIST``    m, distance travelled since the previous ``ODOM_DIST`` (``DR`` rows)
-- ``ODOM_DYAW``    rad, yaw change over the same interval (counter-clockwise positive, as
-                   mavhelm's yaw = −heading)
-- ``ODOM_HEADING`` degrees clockwise from north: the vehicle's own heading (``DRp``)
-- ``RANGE_<id>``   m, a range to beacon ``<id>`` as measured (offset included) (``TD``)
-- ``GT_X``, ``GT_Y`` m, ``GT_HEADING`` degrees: ground truth (``GT``)
+- ``ODOM_VX_BODY``  m/s, forward speed over each odometry interval (``DR``: distance / time)
+- ``ODOM_VY_BODY``  0 m/s with every odometry row: a wheeled robot does not crab, which is
+                    what odometry tells a filter about the sideways speed (the sensor line's
+                    second noise says how strictly)
+- ``ODOM_YAW_VEL``  rad/s, yaw rate over the same interval (counter-clockwise positive, as
+                    mavhelm's yaw = −heading)
+- ``ODOM_HEADING``  degrees clockwise from north: the vehicle's own heading (``DRp``)
+- ``UWB_RANGE_<id>`` m, a range to beacon ``<id>`` as measured (offset included) (``TD``)
+- ``TRUTH_X``, ``TRUTH_Y`` m, ``TRUTH_HEADING`` degrees: ground truth (``GT``)
 
+The mission (``--mission``) is ``plaza.moos.in`` beside this script with the data set's
+beacons (``TL``) and a start 5 m from the true one (1-σ 5 m): what a surveyor would know.
 The data set's plane is taken as mavhelm's local frame (x east, y north); its angles are
 counter-clockwise from x, so heading = 90° − angle. Ranges in the file are not time-ordered;
 the log is.
@@ -19,6 +24,7 @@ the log is.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from pathlib import Path
@@ -36,31 +42,48 @@ def heading_degrees(angle: float) -> float:
     return (90.0 - math.degrees(angle)) % 360.0
 
 
+START_ERROR = (3.0, 4.0)
+"""m: how far from the true start the mission says the vehicle starts (5 m)."""
+TEMPLATE = Path(__file__).with_name("plaza.moos.in")
+
+
 def messages(mat: dict[str, np.ndarray]) -> list[Message]:
     """Every variable of the log, time-ordered (stable, so a time's rows keep their order)."""
-    gt, dr, drp, td, tl = (np.asarray(mat[k], dtype=float) for k in ("GT", "DR", "DRp", "TD", "TL"))
-    t0 = float(min(gt[0, 0], drp[0, 0], dr[0, 0], td[:, 0].min()))
+    gt, dr, drp, td = (np.asarray(mat[k], dtype=float) for k in ("GT", "DR", "DRp", "TD"))
     out: list[Message] = []
-    for beacon_id, x, y in tl:
-        out.append(Message(f"BEACON_{int(beacon_id)}", f"x={x:.6f},y={y:.6f}", t0, "plaza"))
-    for t, dist, dyaw in dr:
-        out.append(Message("ODOM_DIST", float(dist), float(t), "iOdometry"))
-        out.append(Message("ODOM_DYAW", float(dyaw), float(t), "iOdometry"))
+    for (t_before, _d, _a), (t, dist, dyaw) in zip(dr, dr[1:], strict=False):
+        dt = float(t - t_before)
+        if dt <= 0:
+            continue
+        out.append(Message("ODOM_VX_BODY", float(dist) / dt, float(t), "iOdometry"))
+        out.append(Message("ODOM_VY_BODY", 0.0, float(t), "iOdometry"))
+        out.append(Message("ODOM_YAW_VEL", float(dyaw) / dt, float(t), "iOdometry"))
     for t, _x, _y, angle in drp:
         out.append(Message("ODOM_HEADING", heading_degrees(angle), float(t), "iOdometry"))
     for t, _receiver, beacon_id, rng in td:
-        out.append(Message(f"RANGE_{int(beacon_id)}", float(rng), float(t), "iRange"))
+        out.append(Message(f"UWB_RANGE_{int(beacon_id)}", float(rng), float(t), "iRange"))
     for t, x, y, angle in gt:
-        out.append(Message("GT_X", float(x), float(t), "truth"))
-        out.append(Message("GT_Y", float(y), float(t), "truth"))
-        out.append(Message("GT_HEADING", heading_degrees(angle), float(t), "truth"))
+        out.append(Message("TRUTH_X", float(x), float(t), "truth"))
+        out.append(Message("TRUTH_Y", float(y), float(t), "truth"))
+        out.append(Message("TRUTH_HEADING", heading_degrees(angle), float(t), "truth"))
     out.sort(key=lambda m: m.time)
     return out
 
 
-def convert(mat_path: str | Path, alog_path: str | Path) -> int:
-    """Write the .alog; returns the number of messages written."""
+def mission_text(mat: dict[str, np.ndarray]) -> str:
+    """The pNav mission for this recording: its beacons and a start known to 5 m."""
+    gt, tl = np.asarray(mat["GT"], dtype=float), np.asarray(mat["TL"], dtype=float)
+    beacons = "\n".join(f"    BEACON = {int(i)} @ {x:.3f},{y:.3f},0" for i, x, y in tl)
+    return TEMPLATE.read_text().format(beacons=beacons, x=gt[0, 1] + START_ERROR[0],
+                                       y=gt[0, 2] + START_ERROR[1])
+
+
+def convert(mat_path: str | Path, alog_path: str | Path,
+            mission_path: str | Path | None = None) -> int:
+    """Write the .alog (and the mission); returns the number of messages written."""
     mat = scipy.io.loadmat(str(mat_path))
+    if mission_path is not None:
+        Path(mission_path).write_text(mission_text(mat))
     msgs = messages(mat)
     start = msgs[0].time
     logger = AlogLogger(Bus(SimClock(start)), alog_path, start_time=start, opened_on=0.0)
@@ -72,12 +95,14 @@ def convert(mat_path: str | Path, alog_path: str | Path) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    if len(args) != 2:
-        print(__doc__.strip().splitlines()[2], file=sys.stderr)
-        return 2
-    n = convert(args[0], args[1])
-    print(f"wrote {n} messages to {args[1]}")
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    parser.add_argument("mat")
+    parser.add_argument("alog")
+    parser.add_argument("--mission", help="also write the pNav mission for this recording")
+    args = parser.parse_args(argv)
+    n = convert(args.mat, args.alog, args.mission)
+    print(f"wrote {n} messages to {args.alog}"
+          + (f" and the mission {args.mission}" if args.mission else ""))
     return 0
 
 

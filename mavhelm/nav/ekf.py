@@ -440,7 +440,29 @@ class EKF:
         self._gates: dict[int, float] = {}
         self.kf.F = np.eye(self.dim)
         self.kf.Q = np.zeros((self.dim, self.dim))
+        self._eye = np.eye(self.dim)
+        self._pairs, self._walks = self._noise_layout()
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
+
+    def _noise_layout(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray],
+                                     tuple[np.ndarray, np.ndarray]]:
+        """Where the process noise goes: (position, rate, spectral density) of each
+        constant-velocity pair, and (index, variance rate) of each random-walk state."""
+        cfg = self.config
+        q_xy = cfg.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        q_yaw = cfg.yaw_dynamics / 10.0 * FULL_SCALE_YAW_ACCEL
+        q_z = cfg.z_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        pairs = [(I_X, I_VX, q_xy), (I_Y, I_VY, q_xy), (I_H, I_VH, q_yaw)]
+        if self.i_z is not None and self.i_vz is not None:
+            pairs.append((self.i_z, self.i_vz, q_z))
+        walks = [(i, noise**2) for i, noise in (
+            (self.i_bias, cfg.yaw_bias_noise), (self.i_tide, cfg.tide_noise),
+            (self.i_scale, cfg.range_scale_noise)) if i is not None]
+        walks += [(i, cfg.beacon_offset_noise**2) for i in self._offset_index.values()]
+        pos, vel, q = (np.array(col) for col in zip(*pairs, strict=True))
+        walk = np.array([i for i, _ in walks], dtype=int)
+        walk_q = np.array([v for _, v in walks], dtype=float)
+        return (pos, vel, q), (walk, walk_q)
 
     def _initialise(self, x: float, y: float, yaw: float, sigma_xy: float | None,
                     sigma_yaw: float | None) -> None:
@@ -522,33 +544,21 @@ class EKF:
         self._require_online()
         if not (math.isfinite(dt) and dt >= 0):
             raise ValueError(f"predict needs dt >= 0 s, got {dt}")
-        cfg = self.config
-        F = np.eye(self.dim)
+        F = self._eye.copy()
         Q = np.zeros((self.dim, self.dim))
-        q_xy = cfg.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
-        q_yaw = cfg.yaw_dynamics / 10.0 * FULL_SCALE_YAW_ACCEL
-        q_z = cfg.z_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
-        pairs = [((I_X, I_VX), q_xy), ((I_Y, I_VY), q_xy), ((I_H, I_VH), q_yaw)]
-        if self.i_z is not None and self.i_vz is not None:
-            pairs.append(((self.i_z, self.i_vz), q_z))
-        if cfg.mobile:
-            for (p, v), _q in pairs:
-                F[p, v] = dt
+        pos, vel, q = self._pairs
+        if self.config.mobile:
+            F[pos, vel] = dt
         if dt > 0:
-            pp, pv, _, vv = white_noise_block(dt)
-            for (p, v), q in pairs:
-                if cfg.mobile:
-                    Q[p, p], Q[p, v], Q[v, p], Q[v, v] = q * pp, q * pv, q * pv, q * vv
-                else:
-                    Q[p, p] = q * dt  # a static vehicle's pose: a random walk
-            if self.i_bias is not None:
-                Q[self.i_bias, self.i_bias] = cfg.yaw_bias_noise**2 * dt
-            if self.i_tide is not None:
-                Q[self.i_tide, self.i_tide] = cfg.tide_noise**2 * dt
-            if self.i_scale is not None:
-                Q[self.i_scale, self.i_scale] = cfg.range_scale_noise**2 * dt
-            for i in self._offset_index.values():
-                Q[i, i] = cfg.beacon_offset_noise**2 * dt
+            if self.config.mobile:
+                pp, pv, _, vv = white_noise_block(dt)
+                Q[pos, pos] = q * pp
+                Q[pos, vel] = Q[vel, pos] = q * pv
+                Q[vel, vel] = q * vv
+            else:
+                Q[pos, pos] = q * dt  # a static vehicle's pose: a random walk
+            walk, walk_q = self._walks
+            Q[walk, walk] = walk_q * dt
         self.kf.F = F
         self.kf.Q = Q
         self.kf.predict()

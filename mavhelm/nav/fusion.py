@@ -136,6 +136,7 @@ class Fusion:
                        "waiting": 0, "offline": 0}
         self.reinitialisations = 0
         self.fixes = 0
+        self.boot_fix: Fix | None = None
         self._queue: list[tuple[float, int, Reading]] = []
         self._seq = itertools.count()
         self._stream: list[Fix] = []
@@ -287,6 +288,7 @@ class Fusion:
                        for b in beacons]
         self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.config.ekf,
                        sigma_xy=max(fix.sigma, fix.rms, BOOT_SIGMA), sigma_yaw=sigma_yaw)
+        self.boot_fix = fix
         self.warnings.append(f"EKF booted from the LSQ at ({fix.x:.1f}, {fix.y:.1f})")
 
     def _check_lsq(self, horizon: float) -> None:

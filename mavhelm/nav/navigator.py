@@ -309,6 +309,7 @@ class Navigator(App):
         return subs
 
     def on_mail(self, mail: list[Message], now: float) -> None:
+        mail = [m for m in mail if m.source != self.name]  # own EKF_*/LSQ_* already routed
         for msg in mail:
             self._route(msg.name, msg, now)
         if self.reader is not None and self.fusion is not None:

@@ -1,14 +1,15 @@
-"""Run the EKF (booted and watched by the LSQ) over recorded observations; score it against truth.
+"""Run pNav offline over recorded bus variables and score it against truth (spec 2.2.5).
 
-:func:`replay` is what the navigator does each tick, done offline: observations are taken in
-time order; those sharing a time stamp form one slice, tested and applied together; before each
-slice the filter predicts to its time. Ranges also feed the LSQ, which boots the EKF when no
-start is given and re-initialises it after a sustained disagreement (spec 2.2.9). A navigation
-failure stops the run, as it takes the filters off-line on the vehicle.
+:func:`replay` drives the very navigator app the companion runs — same sensor lines, same
+filters, same priority queues — on a simulated clock over a recorded log (an ``.alog`` read
+back, or a MAVLink ``.tlog`` turned into the variables the bridge would have posted). The
+clock ticks at the companion's period, and a tick with no data is skipped: the filter's
+prediction over two periods is the same as over one and then another, so only the outputs of
+empty ticks are lost, and a log replays many times faster than it was recorded.
 
-:func:`accuracy` compares an estimate track with a truth track, the truth interpolated in time.
-:func:`observations_from_messages` turns logged variables (an ``.alog`` read back) into
-observations. Pure functions: no files, no clock.
+:func:`accuracy` compares a track with the truth (``TRUTH_X``/``TRUTH_Y`` in the log: a
+simulator's ground truth, or a data set's), the truth interpolated at the track's times.
+Pure: no files and no wall clock (the caller times it).
 """
 
 from __future__ import annotations
@@ -19,65 +20,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mavhelm.core.bus import Message
-from mavhelm.core.geodesy import heading_to_yaw
-from mavhelm.nav.ekf import (
-    EKF,
-    RANGE_SIGMA,
-    YAW_SIGMA,
-    Beacon,
-    EKFConfig,
-    Estimate,
-    NavigationFailure,
-    Observation,
-    Position,
-    Range,
-    Yaw,
-    odometry,
-)
-from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import SimClock
+from mavhelm.core.mission import Block
+from mavhelm.nav.ekf import Estimate
+from mavhelm.nav.navigator import Navigator
 
-BOOT_FIXES = 3
-"""LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
-(spec 2.2.9: "once a stable/repeatable stream of solutions begins to flow")."""
-BOOT_AGREEMENT = 10.0
-"""m: how close consecutive boot fixes must be (a boat moves a few metres between fixes)."""
-BOOT_SIGMA = 5.0
-"""m: the least 1-σ given to an LSQ fix that boots or resets the EKF. A fix's formal σ only
-counts the ranges' noise; their unknown offsets and scale (the EKF's hidden states, not yet
-learned at boot) move it by metres (Plaza: 4.5 m, from ranges 7 % long)."""
-
-
-@dataclass(frozen=True)
-class Start:
-    """A start pose known roughly: position (m) and yaw (rad) with their 1-σ."""
-
-    x: float
-    y: float
-    yaw: float = 0.0
-    sigma_xy: float = 5.0
-    sigma_yaw: float | None = None
-
-
-@dataclass
-class Track:
-    """The estimate after each slice, as arrays, and what happened on the way."""
-
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    yaw: np.ndarray
-    sigma_x: np.ndarray
-    sigma_y: np.ndarray
-    final: Estimate | None
-    accepted: int = 0
-    rejected: int = 0
-    boot_fix: Fix | None = None
-    fixes: list[Fix] = field(default_factory=list)
-    reinitialisations: int = 0
-    rate_resets: int = 0
-    warnings: list[str] = field(default_factory=list)
-    failure: str | None = None
+TRUTH_X = "TRUTH_X"
+TRUTH_Y = "TRUTH_Y"
+SCORED = ("NAV", "EKF", "LSQ", "GPS")
+"""Position sources the report scores when the log has them (NAV_* is what the helm used)."""
 
 
 @dataclass(frozen=True)
@@ -93,150 +45,144 @@ class Accuracy:
         return f"RMS {self.rms:.2f} m, p95 {self.p95:.2f} m, max {self.max:.2f} m (n={self.n})"
 
 
-def observations_from_messages(
-    messages: Iterable[Message], *, range_prefix: str | None = "RANGE_",
-    odometry_vars: tuple[str, str] | None = ("ODOM_DIST", "ODOM_DYAW"),
-    heading_var: str | None = "ODOM_HEADING", yaw_var: str | None = None,
-    position_vars: tuple[str, str] | None = None, range_sigma: float = RANGE_SIGMA,
-    yaw_sigma: float = YAW_SIGMA,
-) -> list[Observation]:
-    """Observations from bus messages, time-ordered:
+@dataclass
+class Track:
+    """One source's positions over time."""
 
-    - ``<range_prefix><beacon>``: a :class:`Range` to that beacon (m);
-    - ``odometry_vars`` (distance m, yaw change rad) posted at the same time: one
-      :func:`odometry` body velocity over the interval since the previous pair (the first pair
-      only starts the clock);
-    - ``heading_var`` (degrees clockwise from north) or ``yaw_var`` (rad): a :class:`Yaw`;
-    - ``position_vars`` (x, y in m, posted at the same time): a :class:`Position`.
-    Non-numeric and non-finite values are skipped.
-    """
-    out: list[Observation] = []
-    pending: dict[str, dict[float, float]] = {}
-    paired = [v for pair in (odometry_vars, position_vars) if pair for v in pair]
-    for msg in messages:
-        if not msg.is_double or not math.isfinite(msg.double):
-            continue
-        name, value, t = msg.name, msg.double, msg.time
-        if range_prefix and name.startswith(range_prefix) and len(name) > len(range_prefix):
-            out.append(Range(t, name[len(range_prefix):], value, range_sigma))
-        elif heading_var is not None and name == heading_var:
-            out.append(Yaw(t, heading_to_yaw(value), yaw_sigma))
-        elif yaw_var is not None and name == yaw_var:
-            out.append(Yaw(t, value, yaw_sigma))
-        elif name in paired:
-            pending.setdefault(name, {})[t] = value
-    if odometry_vars:
-        dist, dyaw = (pending.get(v, {}) for v in odometry_vars)
-        times = sorted(set(dist) & set(dyaw))
-        for before, t in zip(times, times[1:], strict=False):
-            out.append(odometry(t, t - before, dist[t], dyaw[t]))
-    if position_vars:
-        xs, ys = (pending.get(v, {}) for v in position_vars)
-        out.extend(Position(t, xs[t], ys[t]) for t in sorted(set(xs) & set(ys)))
-    out.sort(key=lambda o: o.t)
-    return out
+    t: list[float] = field(default_factory=list)
+    x: list[float] = field(default_factory=list)
+    y: list[float] = field(default_factory=list)
 
 
-def _slices(observations: list[Observation]) -> Iterable[list[Observation]]:
-    batch: list[Observation] = []
-    for obs in observations:
-        if batch and obs.t != batch[0].t:
-            yield batch
-            batch = []
-        batch.append(obs)
-    if batch:
-        yield batch
+@dataclass
+class ReplayResult:
+    """What the navigator did over the log."""
+
+    tracks: dict[str, Track]
+    truth: Track
+    navigator: Navigator
+    ticks: int
+    span: float
+    warnings: list[str]
+    failure: str | None
+
+    @property
+    def final(self) -> Estimate | None:
+        fusion = self.navigator.fusion
+        return fusion.ekf.estimate() if fusion is not None and fusion.ekf is not None else None
+
+    def accuracy(self, source: str = "NAV") -> Accuracy:
+        track = self.tracks.get(source, Track())
+        return accuracy(track.t, track.x, track.y, self.truth.t, self.truth.x, self.truth.y)
+
+    def report(self) -> list[str]:
+        """One line per scored source, plus the filter's own account."""
+        lines = [f"replayed {self.span:.0f} s of log in {self.ticks} ticks"]
+        if self.truth.t:
+            for source in SCORED:
+                if self.tracks.get(source) and self.tracks[source].t:
+                    lines.append(f"{source:<4} position: {self.accuracy(source)}")
+        else:
+            lines.append("no truth in the log (TRUTH_X, TRUTH_Y): nothing to score")
+        fusion = self.navigator.fusion
+        if fusion is not None:
+            counts = ", ".join(f"{k} {v}" for k, v in fusion.counts.items() if v)
+            lines.append(f"observations: {counts}; LSQ fixes {fusion.fixes}, "
+                         f"re-initialisations {fusion.reinitialisations}")
+            final = self.final
+            if final is not None:
+                learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg",
+                           f"range scale {final.range_scale:+.4f}"]
+                learned += [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
+                lines.append("learned: " + ", ".join(learned))
+        if self.failure:
+            lines.append(f"NAVIGATION FAILURE: {self.failure}")
+        return lines
 
 
-def replay(observations: Iterable[Observation], beacons: Iterable[Beacon], *,
-           config: EKFConfig | None = None, start: Start | None = None,
-           lsq: LSQ | None = None, monitor: DivergenceMonitor | None = None,
-           boot_sigma: float = BOOT_SIGMA) -> Track:
-    """Run the EKF over ``observations`` (any order; sorted by time, stably).
-
-    With ``start`` the EKF starts there at the first observation's time; without, it boots at
-    the last of ``BOOT_FIXES`` consistent LSQ fixes in a row (yaw from the latest orientation
-    reading, if any), with a 1-σ of at least ``boot_sigma``. ``lsq`` defaults to an
-    :class:`LSQ` over the beacons and ``monitor`` to a :class:`DivergenceMonitor`.
-    """
-    beacons = list(beacons)
-    config = config or EKFConfig()
-    obs_list = sorted(observations, key=lambda o: o.t)
-    lsq = lsq if lsq is not None else LSQ(beacons)
-    monitor = monitor if monitor is not None else DivergenceMonitor()
-    rows: list[tuple[float, ...]] = []
-    track_fixes: list[Fix] = []
-    ekf: EKF | None = None
-    boot_fix: Fix | None = None
-    stream: list[Fix] = []
-    last_yaw: float | None = None
-    accepted = rejected = reinitialisations = 0
+def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
+           log: object | None = None) -> ReplayResult:
+    """Run the navigator of a ``pNav`` block over ``messages`` (any order; sorted by time)."""
+    ordered = sorted(messages, key=lambda m: m.time)
+    truth = Track()
+    for m in ordered:
+        if m.name in (TRUTH_X, TRUTH_Y) and m.is_double:
+            if m.name == TRUTH_X:
+                truth.t.append(m.time)
+                truth.x.append(m.double)
+            else:
+                truth.y.append(m.double)
+    if len(truth.x) != len(truth.y):
+        truth = _paired_truth(ordered)
+    start = ordered[0].time if ordered else 0.0
+    clock = SimClock(start)
+    bus = Bus(clock)
+    nav = Navigator.from_block(bus, block, log)  # type: ignore[arg-type]
+    bus.subscribe(nav.name, nav.subscriptions())
+    wanted = {f"{s}_{k}" for s in SCORED for k in ("X", "Y")}
+    bus.subscribe("replay", wanted | {"NAV_WARNING"})
+    tracks: dict[str, Track] = {}
+    pending: dict[tuple[str, float], float] = {}
+    subscribed = nav.subscriptions() | wanted
+    ticks = 0
+    i = 0
+    now = start
     warnings: list[str] = []
-    failure: str | None = None
-
-    if start is not None and obs_list:
-        ekf = EKF(obs_list[0].t, start.x, start.y, start.yaw, beacons=beacons, config=config,
-                  sigma_xy=start.sigma_xy, sigma_yaw=start.sigma_yaw)
-
-    try:
-        for batch in _slices(obs_list):
-            t = batch[0].t
-            fixes = [f for f in (lsq.add(o) for o in batch if isinstance(o, Range)) if f]
-            track_fixes.extend(fixes)
-            for o in batch:
-                if isinstance(o, Yaw):
-                    last_yaw = o.z
-            if ekf is None:
-                for fix in fixes:
-                    if stream and math.hypot(fix.x - stream[-1].x,
-                                             fix.y - stream[-1].y) > BOOT_AGREEMENT:
-                        stream.clear()
-                    stream.append(fix)
-                if len(stream) < BOOT_FIXES:
-                    continue
-                boot_fix = stream[-1]
-                beacons_now = beacons
-                if lsq.estimate_offset:
-                    beacons_now = [Beacon(b.name, b.x, b.y, b.z, b.offset + boot_fix.offset)
-                                   for b in beacons]
-                ekf = EKF(t, boot_fix.x, boot_fix.y, last_yaw if last_yaw is not None else 0.0,
-                          beacons=beacons_now, config=config,
-                          sigma_xy=max(boot_fix.sigma, boot_fix.rms, boot_sigma))
-            ekf.advance(t)
-            for fix in fixes:
-                if monitor.check(fix, ekf.x[0, 0], ekf.x[1, 0]):
-                    ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, boot_sigma),
-                                     yaw=last_yaw)
-                    reinitialisations += 1
-            result = ekf.update(batch)
-            accepted += len(result.accepted)
-            rejected += len(result.rejected)
-            e = ekf.estimate()
-            rows.append((e.t, e.x, e.y, e.yaw, e.sigma_x, e.sigma_y))
-    except NavigationFailure as exc:
-        failure = str(exc)
-    if ekf is not None:
-        warnings.extend(ekf.warnings)
-    arr = np.array(rows, dtype=float).reshape(-1, 6)
-    return Track(
-        t=arr[:, 0], x=arr[:, 1], y=arr[:, 2], yaw=arr[:, 3], sigma_x=arr[:, 4],
-        sigma_y=arr[:, 5], final=ekf.estimate() if ekf is not None else None,
-        accepted=accepted, rejected=rejected, boot_fix=boot_fix, fixes=track_fixes,
-        reinitialisations=reinitialisations,
-        rate_resets=ekf.rate_resets if ekf is not None else 0, warnings=warnings,
-        failure=failure,
-    )
+    while i < len(ordered):
+        # the first tick boundary at or after the next message: data are read in ticks
+        k = math.ceil((ordered[i].time - start) / period - 1e-9)
+        now = max(now, start + k * period)
+        clock.set(now)
+        while i < len(ordered) and ordered[i].time <= now + 1e-9:
+            m = ordered[i]
+            if m.name in subscribed:
+                bus.notify(m.name, m.value, m.source or "log", m.time)
+            i += 1
+        nav.on_mail(bus.fetch(nav.name), now)
+        nav.iterate(now)
+        ticks += 1
+        for m in bus.fetch("replay"):
+            if m.name == "NAV_WARNING":
+                warnings.append(m.string)
+                continue
+            source, _, axis = m.name.rpartition("_")
+            other = "Y" if axis == "X" else "X"
+            partner = pending.pop((f"{source}_{other}", m.time), None)
+            if partner is None:
+                pending[(m.name, m.time)] = m.double
+                continue
+            x, y = (m.double, partner) if axis == "X" else (partner, m.double)
+            track = tracks.setdefault(source, Track())
+            track.t.append(m.time)
+            track.x.append(x)
+            track.y.append(y)
+        now += period
+    fusion = nav.fusion
+    span = (ordered[-1].time - start) if ordered else 0.0
+    return ReplayResult(tracks, truth, nav, ticks, span, warnings,
+                        fusion.failure if fusion is not None else None)
 
 
-def accuracy(t: np.ndarray, x: np.ndarray, y: np.ndarray, truth_t: np.ndarray,
-             truth_x: np.ndarray, truth_y: np.ndarray) -> Accuracy:
+def _paired_truth(messages: list[Message]) -> Track:
+    xs = {m.time: m.double for m in messages if m.name == TRUTH_X and m.is_double}
+    ys = {m.time: m.double for m in messages if m.name == TRUTH_Y and m.is_double}
+    track = Track()
+    for t in sorted(set(xs) & set(ys)):
+        track.t.append(t)
+        track.x.append(xs[t])
+        track.y.append(ys[t])
+    return track
+
+
+def accuracy(t: Iterable[float], x: Iterable[float], y: Iterable[float],
+             truth_t: Iterable[float], truth_x: Iterable[float],
+             truth_y: Iterable[float]) -> Accuracy:
     """Position error of the estimates (t, x, y) against the truth interpolated at their
     times; estimates outside the truth's time span are not scored."""
-    t, x, y = (np.asarray(a, dtype=float) for a in (t, x, y))
-    order = np.argsort(truth_t, kind="stable")
-    tt = np.asarray(truth_t, dtype=float)[order]
-    tx = np.asarray(truth_x, dtype=float)[order]
-    ty = np.asarray(truth_y, dtype=float)[order]
+    t, x, y = (np.asarray(list(a), dtype=float) for a in (t, x, y))
+    tt, tx, ty = (np.asarray(list(a), dtype=float) for a in (truth_t, truth_x, truth_y))
+    order = np.argsort(tt, kind="stable")
+    tt, tx, ty = tt[order], tx[order], ty[order]
     inside = (t >= tt[0]) & (t <= tt[-1]) if len(tt) else np.zeros(len(t), dtype=bool)
     if not inside.any():
         return Accuracy(math.nan, math.nan, math.nan, 0)
@@ -244,9 +190,3 @@ def accuracy(t: np.ndarray, x: np.ndarray, y: np.ndarray, truth_t: np.ndarray,
                    y[inside] - np.interp(t[inside], tt, ty))
     return Accuracy(float(np.sqrt(np.mean(err**2))), float(np.percentile(err, 95)),
                     float(err.max()), int(err.size))
-
-
-def track_accuracy(track: Track, truth_t: np.ndarray, truth_x: np.ndarray,
-                   truth_y: np.ndarray) -> Accuracy:
-    """:func:`accuracy` of a replayed track."""
-    return accuracy(track.t, track.x, track.y, truth_t, truth_x, truth_y)
