@@ -132,6 +132,12 @@ def _sim(args: argparse.Namespace) -> int:
     return runner.run(args)
 
 
+def _instruments(args: argparse.Namespace) -> int:
+    from mavhelm.sitl import instruments_runner
+
+    return instruments_runner.run(args)
+
+
 def _demo(args: argparse.Namespace) -> int:
     from mavhelm.demo import DEFAULT_MISSION, run_demo
     from mavhelm.sitl.faults import Scenario
@@ -204,6 +210,23 @@ def build_parser() -> argparse.ArgumentParser:
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)
     sim.set_defaults(func=_sim)
+
+    from mavhelm.sitl import instruments_runner
+
+    instruments = sub.add_parser("instruments", help="the serial instruments (GPS, heading, "
+                                 "depth, DVL, beacons) on ptys, driven by a real SITL's SIMSTATE")
+    instruments_runner.add_arguments(instruments)
+    instruments.set_defaults(func=_instruments)
+
+    from mavhelm.companion import nav_replay
+
+    nav = sub.add_parser("nav", help="pNav tools offline")
+    nav_sub = nav.add_subparsers(dest="nav_command", required=True)
+    nav_replay_parser = nav_sub.add_parser(
+        "replay", help="run the mission's pNav over a recorded .alog or .tlog and score it "
+        "against the log's truth (TRUTH_X, TRUTH_Y)")
+    nav_replay.add_arguments(nav_replay_parser)
+    nav_replay_parser.set_defaults(func=nav_replay.run)
 
     demo = sub.add_parser("demo", help="run a mission end to end in the built-in simulator")
     demo.add_argument("mission", nargs="?", default=None,

@@ -182,7 +182,8 @@ def test_late_data_are_logged_late_without_lag_and_used_with_it() -> None:
                 rig.post("GPS_Y", 0.0)
                 rig.post("DEPTH_DEPTH", 4.0, rig.clock.now() - 1.5)  # 1.5 s old
             rig.tick()
-        late = [line for line in rig.log.olog_lines if " pressure DEPTH " in line and " late" in line]
+        late = [line for line in rig.log.olog_lines
+                if " pressure DEPTH " in line and " late" in line]
         assert bool(late) is expect_late
         if not expect_late:
             assert rig.last("EKF_DEPTH").double == pytest.approx(4.0, abs=0.2)

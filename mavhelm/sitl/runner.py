@@ -74,7 +74,7 @@ def _home(text: str) -> tuple[float, float, float]:
     return vals[0], vals[1], vals[2]
 
 
-def _beacons(text: str) -> list[Any]:
+def parse_beacons(text: str) -> list[Any]:
     """``ID:X,Y[,Z][,TURNAROUND];...`` (local metres: X east, Y north, Z up; turn-around s)."""
     from mavhelm.sitl.serial_sensors import Beacon
 
@@ -125,7 +125,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sensors", action="store_true",
                         help="serve the serial sensors (NMEA GPS, heading, depth, DVL) on "
                              "pseudo-terminals and print their /dev/pts paths")
-    parser.add_argument("--beacons", type=_beacons, default=None,
+    parser.add_argument("--beacons", type=parse_beacons, default=None,
                         metavar="ID:X,Y[,Z][,TURNAROUND];...",
                         help="range beacons in the local frame (m from home, X east, Y north, "
                              "Z up; turn-around s) for a ranging sensor (needs --sensors)")
