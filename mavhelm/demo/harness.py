@@ -52,7 +52,10 @@ class SimulatedRun:
               variant: str | None = None, fast_start: bool = True, scenario=None,
               seed: int = 0, alog_path: str | Path | None = None,
               start_heading: float = 0.0, params: dict[str, float] | None = None,
-              record: Iterable[str] = (), operator_mode: str = "GUIDED") -> SimulatedRun:
+              record: Iterable[str] = (), operator_mode: str = "GUIDED",
+              serial_sensors: Iterable = ()) -> SimulatedRun:
+        """``serial_sensors``: the simulator's instrument ports (ptys the mission's iSerial
+        blocks read), updated every simulator step."""
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
         clock = SimClock(0.0)
@@ -60,7 +63,8 @@ class SimulatedRun:
         sim = Simulator(clock, vehicle=vehicle, variant=variant, ports=(0, 0, 0),
                         home=flat_earth.Origin(origin.lat, origin.lon),
                         start_heading=start_heading,
-                        fast_start=fast_start, scenario=scenario, seed=seed, params=params)
+                        fast_start=fast_start, scenario=scenario, seed=seed, params=params,
+                        serial_sensors=list(serial_sensors))
         companion = Companion.build(mission, clock, connect=f"tcp:127.0.0.1:{sim.ports[0]}",
                                     alog_path=alog_path, alog_opened_on=time.time())
         gcs = GroundStation.connect(f"tcp:127.0.0.1:{sim.ports[1]}")

@@ -84,6 +84,9 @@ NAV_SCHEMA = Schema(
            attr="fixed_heading", doc="an artificial heading observation every tick"),
      Param("FIXEDTIDE", FixedLine(Number(-1e3, 1e3), "m"), None, attr="fixed_tide",
            doc="an artificial tide observation every tick (pins Z = 0 to the surface)"),
+     Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s"), None,
+           attr="fixed_sideslip", doc="an artificial starboard-speed observation every tick: "
+           "the hull moves along its bow (0 @ 0.3 for a boat in little current)"),
      Param("EKF_X", Number(-1e5, 1e5), None, "m", "EKF start X (with EKF_Y; else the LSQ or "
            "the first XY fix starts it)", attr="ekf_x"),
      Param("EKF_Y", Number(-1e5, 1e5), None, "m", "EKF start Y", attr="ekf_y"),
@@ -232,7 +235,8 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
         lsq_timeout=settings["lsq_timeout"], lsq_offset=settings["lsq_offset"],
         divergence_distance=settings["lsq_divergence"],
         fixed_depth=settings["fixed_depth"], fixed_heading=settings["fixed_heading"],
-        fixed_tide=settings["fixed_tide"], rejection=tuple(settings["lsq_rejection"]))
+        fixed_tide=settings["fixed_tide"], fixed_sideslip=settings["fixed_sideslip"],
+        rejection=tuple(settings["lsq_rejection"]))
     return sensors, Fusion(config)
 
 

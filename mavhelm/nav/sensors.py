@@ -31,7 +31,8 @@ RANGE         ``S_RANGE_<beacon>`` (m)                                       m
 The serial instruments (``iSerial_*``) and the MAVLink bridge (``GPS_*``, ``INS_*``, ``AP_*``,
 ``WHEEL_*``) already post these names. Beacons are declared in the same block
 (``BEACON = id @ x,y,z [TAT=s]``, the turn-around time of an acoustic transponder) and fixed
-observations (spec 2.2.8) as ``FIXEDDEPTH``/``FIXEDHEADING``/``FIXEDTIDE = value @ sigma``.
+observations (spec 2.2.8) as ``FIXEDDEPTH``/``FIXEDHEADING``/``FIXEDTIDE = value @ sigma``,
+and ``FIXEDSIDESLIP = 0 @ sigma`` (m/s) for a hull that moves along its bow.
 
 An acoustic two-way travel time is explained as a range at the middle of its flight: the mean
 of the outbound and return slant ranges (c·(twtt − turn-around)/2) equals, for a vehicle moving
@@ -223,9 +224,16 @@ class FixedLine(Kind):
 
 
 def fixed_observations(t: float, depth: FixedValue | None, heading: FixedValue | None,
-                       tide: FixedValue | None) -> list[Observation]:
-    """The fixed observations declared, as observations at ``t``."""
+                       tide: FixedValue | None, sideslip: FixedValue | None = None
+                       ) -> list[Observation]:
+    """The fixed observations declared, as observations at ``t``. ``sideslip`` (m/s) is the
+    hull's "does not crab" constraint: the spec's model leaves velocity and heading uncoupled
+    (2.2.3), which on ranges alone lets the velocity lag seconds behind a turn; a boat's or a
+    wheeled robot's velocity points along its bow to within its leeway, and saying so couples
+    the compass into the track."""
     out: list[Observation] = []
+    if sideslip is not None:
+        out.append(BodyVelocity(t, None, sideslip.value, None, sigma_starboard=sideslip.sigma))
     if depth is not None:
         out.append(Depth(t, depth.value, depth.sigma))
     if heading is not None:
