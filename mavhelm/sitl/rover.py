@@ -2,6 +2,8 @@
 
 A rover does not drift: it goes where its wheels point, with first-order lags in speed and
 steering that give a controller realistic delay. ``step(state, inputs, env, dt)`` is pure.
+With ``turning_circle`` set (``models.SITL_ROVER``/``SITL_ROVER_SKID``) the same step is
+ArduPilot's SITL rover, matched to the real SITL (docs/sim-vehicles.md).
 """
 
 from __future__ import annotations
@@ -24,6 +26,10 @@ class RoverParams:
     steer_tau: float = 0.15  # s, steering servo lag
     max_turn_rate: float = math.radians(120.0)  # rad/s, hard limit on yaw rate
     turn_tau: float = 0.25  # s, skid yaw-rate lag
+    # ArduPilot's SITL rover (SIM_Rover.cpp) sets the yaw rate from a turning circle instead of
+    # a wheelbase: one lap of ``turning_circle`` × sin(max_steer) / sin(steering × max_steer)
+    # metres (diameter). None keeps the bicycle model above.
+    turning_circle: float | None = None
 
 
 @dataclass(frozen=True)
@@ -39,6 +45,14 @@ class RoverState:
 
 def _lag(value: float, target: float, tau: float, dt: float) -> float:
     return value + (target - value) * min(1.0, dt / max(tau, 1e-6))
+
+
+def _circle_rate(speed: float, steer: float, p: RoverParams) -> float:
+    """The SITL's yaw rate: a lap of the turning circle the wheel angle sets, at this speed."""
+    if abs(steer) < 1e-9 or abs(speed) < 1e-6 or p.turning_circle is None:
+        return 0.0
+    diameter = p.turning_circle * math.sin(p.max_steer) / math.sin(steer)
+    return 2.0 * speed / diameter
 
 
 def step(state: RoverState, inputs: tuple[float, float], env: Environment, dt: float,
@@ -59,7 +73,10 @@ def step(state: RoverState, inputs: tuple[float, float], env: Environment, dt: f
         target_speed = thr * (p.max_speed if thr >= 0 else p.max_reverse)
         speed = _lag(state.speed, target_speed, p.speed_tau, dt)
         steer = _lag(state.steer, steer_cmd * p.max_steer, p.steer_tau, dt)
-        r = speed * math.tan(steer) / p.wheelbase
+        if p.turning_circle is None:
+            r = speed * math.tan(steer) / p.wheelbase
+        else:
+            r = _circle_rate(state.speed, steer, p)
     r = max(-p.max_turn_rate, min(p.max_turn_rate, r))
     h = state.heading + 0.5 * (state.r + r) * dt
     v = 0.5 * (state.speed + speed)
