@@ -81,23 +81,32 @@ def test_auto_without_mission_and_unknown_mode_are_refused(rig):
 
 
 def test_start_up_timeline_real_pace():
+    """The milestones measured on the real Rover 4.8-dev SITL (docs/sim-differences.md)."""
     r = Rig(fast_start=False, ports=(0,))
     try:
         c = r.connect()
         dt = 0.2
         r.run(1.2, dt)
         assert r.sim.mode == "INITIALISING"
+        assert c.last("HEARTBEAT").system_status == M.MAV_STATE_CALIBRATING
         r.run(0.4, dt)
         assert r.sim.mode == "MANUAL"
-        r.run(6.0, dt)  # 7.6 s
-        assert c.last("GPS_RAW_INT").fix_type < 3
-        r.run(2.0, dt)  # 9.6 s
-        assert c.last("GPS_RAW_INT").fix_type == 3
+        r.run(8.0, dt)  # 9.6 s
+        assert c.last("GPS_RAW_INT").fix_type == M.GPS_FIX_TYPE_NO_GPS  # u-blox not detected
+        assert c.last("HEARTBEAT").system_status == M.MAV_STATE_ACTIVE  # disarmed MANUAL
+        r.run(0.4, dt)  # 10.0 s
+        assert c.last("GPS_RAW_INT").fix_type == M.GPS_FIX_TYPE_RTK_FIXED  # SITL's u-blox: 6
+        assert "GPS 1: detected u-blox" in c.texts()
         command(c, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         r.step(dt)
         assert c.acks()[-1].result == M.MAV_RESULT_FAILED
-        assert "Arm: Accels inconsistent" in c.texts()
-        r.run(14.0, dt)  # 23.6 s
+        assert c.texts()[-1] == "Arm: Accels inconsistent"
+        r.run(4.0, dt)  # 14.2 s
+        command(c, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        r.step(dt)
+        assert c.acks()[-1].result == M.MAV_RESULT_FAILED
+        assert c.texts()[-1] == "Arm: Gyros inconsistent"
+        r.run(9.2, dt)  # 23.6 s
         command(c, M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         r.step(dt)
         assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED and r.sim.armed
@@ -105,7 +114,10 @@ def test_start_up_timeline_real_pace():
         r.step(dt)
         assert c.acks()[-1].result == M.MAV_RESULT_FAILED  # EKF not using GPS yet
         assert r.sim.mode == "MANUAL"
-        r.run(20.0, dt)  # 43.8 s
+        r.run(2.0, dt)  # armed without a position: EKF failsafe, silent in MANUAL
+        assert c.last("HEARTBEAT").system_status == M.MAV_STATE_CRITICAL
+        r.run(17.8, dt)  # 43.8 s: using GPS at 41.9, failsafe cleared ~1 s later
+        assert "EKF3 IMU0 is using GPS" in c.texts() and "EKF failsafe cleared" in c.texts()
         command(c, M.MAV_CMD_DO_SET_MODE, 1, 15)
         r.step(dt)
         assert c.acks()[-1].result == M.MAV_RESULT_ACCEPTED and r.sim.mode == "GUIDED"
@@ -122,11 +134,11 @@ def test_guided_turn_rate_and_thrust_drive_the_boat_then_time_out(rig):
         rig.step(0.1)
     t = rig.sim.truth
     assert t.yaw_rate == pytest.approx(11.46, abs=2.0)
-    assert t.surge == pytest.approx(1.0, abs=0.25)  # thrust 0.5 × WP_SPEED 2 m/s
+    assert t.surge == pytest.approx(2.5, abs=0.3)  # thrust 0.5 × WP_SPEED 5 m/s
     assert (t.heading - h0) % 360 > 40
     assert len(c.acks()) == 2  # arm + mode only: attitude targets are never ACKed
     rig.run(3.5, 0.1)
-    assert "target not received last 3.0 secs, stopping" in c.texts()
+    assert "target not received last 3secs, stopping" in c.texts()
 
 
 def test_guided_quaternion_heading(rig):
@@ -259,7 +271,7 @@ def test_gps_outage_fault_drops_the_fix_and_dead_reckons():
         c = r.connect()
         command(c, M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_GPS_RAW_INT, 200_000)
         r.run(4.9)
-        assert c.last("GPS_RAW_INT").fix_type == 3
+        assert c.last("GPS_RAW_INT").fix_type == 6
         r.run(1.0)
         g = c.last("GPS_RAW_INT")
         assert g.fix_type == M.GPS_FIX_TYPE_NO_FIX and g.satellites_visible == 0
@@ -268,7 +280,7 @@ def test_gps_outage_fault_drops_the_fix_and_dead_reckons():
         flags = c.last("EKF_STATUS_REPORT").flags
         assert flags & M.EKF_CONST_POS_MODE and not flags & M.EKF_POS_HORIZ_ABS
         r.run(2.0)
-        assert c.last("GPS_RAW_INT").fix_type == 3
+        assert c.last("GPS_RAW_INT").fix_type == 6
         assert c.last("EKF_STATUS_REPORT").flags & M.EKF_POS_HORIZ_ABS
     finally:
         r.close()
@@ -343,3 +355,21 @@ def test_lockstep_refuses_a_bad_stall_limit(monkeypatch, bad):
         Lockstep(_SilentSim(), SimClock(0.0), 0.1)
     with pytest.raises(ValueError, match=repr(bad)):
         stall_limit()
+
+
+def test_wait_for_client_holds_the_clock_and_the_other_ports_like_the_real_sitl():
+    """Real SITL: its clock starts, and SERIAL1/2 open, only when a client connects to SERIAL0."""
+    r = Rig(fast_start=False, ports=(0, 0), wait_for_client=True)
+    try:
+        r.sim.step(r.clock.advance(5.0))  # nobody connected: nothing moves
+        assert not r.sim.started and len(r.sim.ports) == 1
+        assert r.sim.mode == "INITIALISING"
+        c = r.connect(0)
+        assert r.sim.started and r.sim.boot == pytest.approx(5.0) and len(r.sim.ports) == 2
+        r.connect(1)
+        r.run(1.6)
+        assert r.sim.mode == "MANUAL"
+        assert c.texts()[:2] == ["Calibrating barometer", "Barometer 1 calibration complete"]
+        assert c.of("ATTITUDE")[0].time_boot_ms < 100  # time counts from the connection
+    finally:
+        r.close()

@@ -10,7 +10,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as M
 
 from mavhelm.sitl.autopilot import Estimate, Timeline
-from mavhelm.sitl.estimator import Estimator
+from mavhelm.sitl.estimator import EKF_YAW_OFFSET_DEG, GPS_DETECTED_AT, Estimator
 from mavhelm.sitl.truth import Truth
 
 DT = 0.02
@@ -43,9 +43,9 @@ def test_zero_noise_gives_the_exact_true_position():
     est = Estimate(heading=90.0)
     for t in drive(e, est, 0.0, 5.0):
         g = e.gps
-        if t < TL.gps_fix * 0.3:
-            assert g is None  # receiver not detected yet
-        elif 0.3 <= t < TL.gps_fix:  # detected (sample at 0.2 s), no fix yet
+        if t < TL.map(GPS_DETECTED_AT):
+            assert g is None  # receiver not detected yet (fix_type 0)
+        elif t < TL.gps_fix:  # detected, no fix yet
             assert g is not None and g.fix == 1
         elif t >= TL.gps_fix and g is not None and g.t == t:
             assert (g.fix, g.x, g.y, g.vx, g.vy) == (3, pytest.approx(t), 0.0, 1.0, 0.0)
@@ -80,7 +80,9 @@ def test_dead_reckons_for_sim_ekf_dr_time_then_loses_absolute_position():
             if est.position_ok:
                 ok_until = t
     # dead reckoning on heading and speed moves the estimate with the vehicle
-    assert x_at[12.0] - x_at[6.0] == pytest.approx(6.0, abs=1e-6)
+    # (on the EKF's heading, which carries the real SITL's +0.45° yaw offset)
+    assert x_at[12.0] - x_at[6.0] == pytest.approx(
+        6.0 * math.cos(math.radians(EKF_YAW_OFFSET_DEG)), abs=1e-6)
     last_fix = e.last_fix_t
     assert last_fix is not None and 4.7 < last_fix < 5.0 + 1e-6
     assert ok_until == pytest.approx(last_fix + 8.0 - DT, abs=DT / 2)

@@ -11,7 +11,10 @@ state, and sends what it queues (STATUSTEXT, MISSION_ITEM_REACHED).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+
+from mavhelm.sitl.statustext import BOOT_TEXTS
 
 # Rover custom modes (Rover/mode.h).
 MODES: dict[int, str] = {
@@ -22,7 +25,7 @@ MODE_NUMBERS: dict[str, int] = {v: k for k, v in MODES.items()}
 MANUAL, ACRO, STEERING, HOLD, LOITER, FOLLOW, SIMPLE = 0, 1, 3, 4, 5, 6, 7
 AUTO, RTL, SMART_RTL, GUIDED, INITIALISING = 10, 11, 12, 15, 16
 
-_MANUAL_INPUT_MODES = {MANUAL, ACRO, STEERING, SIMPLE}
+_MANUAL_INPUT_MODES = {MANUAL, ACRO, STEERING, SIMPLE, INITIALISING}  # has_manual_input()
 _AUTOPILOT_MODES = {AUTO, GUIDED, RTL, SMART_RTL, LOITER, FOLLOW}
 _NEEDS_POSITION = {LOITER, FOLLOW, AUTO, RTL, SMART_RTL, GUIDED, SIMPLE}
 _NEEDS_VELOCITY = {ACRO, STEERING}
@@ -50,23 +53,47 @@ ACC_IGNORE = 0x1C0
 YAW_IGNORE = 0x400
 YAW_RATE_IGNORE = 0x800
 
-GUIDED_TIMEOUT = 3.0  # GUID_TIMEOUT default, seconds
+# Rover 4.8 has no GUID_TIMEOUT parameter: ModeGuided stops after a fixed 3 s without a target.
+GUIDED_TIMEOUT = 3.0
+GUIDED_TIMEOUT_TEXT = "target not received last 3secs, stopping"
+
+# HEARTBEAT system_status (MAV_STATE)
+MAV_STATE_CALIBRATING, MAV_STATE_STANDBY, MAV_STATE_ACTIVE, MAV_STATE_CRITICAL = 2, 3, 4, 5
 
 
 @dataclass(frozen=True)
 class Timeline:
-    """Seconds after boot at which the start-up milestones happen (measured on Rover 4.7 SITL)."""
+    """Seconds after boot at which the start-up milestones happen, as measured on the real
+    Rover 4.8-dev SITL (motorboat, autopilot time from the ground station's connection)."""
 
     initialised: float = 1.4  # INITIALISING → MANUAL (or INITIAL_MODE)
-    gps_fix: float = 9.0  # GPS 3D fix
-    ekf_origin: float = 19.0  # EKF origin and home set
-    arming: float = 23.0  # arming checks pass ("Accels inconsistent" before)
-    ekf_gps: float = 43.0  # EKF using GPS: position OK, GUIDED accepted when armed
+    gps_fix: float = 9.9  # u-blox detected at 9.7, 3D fix and "Set HOME" at 9.9
+    ekf_origin: float = 19.9  # "EKF3 IMU0 origin set"
+    arming: float = 23.5  # IMU checks pass: refused at 23.2, accepted at 24.2; pre-arm bit 24.05
+    ekf_gps: float = 41.9  # "EKF3 IMU0 is using GPS": position OK; GUIDED ~1 s later
+    gyros: float = 13.5  # the arming refusal says "Accels inconsistent" before, "Gyros" after
 
     @staticmethod
     def fast() -> Timeline:
         """Everything ready within 3 s of sim time, for tests."""
-        return Timeline(0.2, 0.5, 1.0, 1.5, 2.0)
+        return Timeline(0.2, 0.5, 1.0, 1.5, 2.0, 0.8)
+
+    def milestones(self) -> list[float]:
+        return [0.0, self.initialised, self.gps_fix, self.gyros, self.ekf_origin, self.arming,
+                self.ekf_gps]
+
+    def map(self, t_normal: float) -> float:
+        """A time on the normal (measured) timeline moved onto this one, piecewise linearly
+        between the milestones, so the boot texts keep their order and place when the start-up
+        is compressed."""
+        src, dst = Timeline().milestones(), self.milestones()
+        for i in range(1, len(src)):
+            if t_normal <= src[i] or i == len(src) - 1:
+                a0, a1, b0, b1 = src[i - 1], src[i], dst[i - 1], dst[i]
+                if a1 <= a0:
+                    return b1
+                return b0 + (t_normal - a0) * (b1 - b0) / (a1 - a0)
+        return t_normal
 
 
 @dataclass
@@ -88,33 +115,37 @@ class Estimate:
 
 
 def default_params(boat: bool, skid: bool) -> dict[str, float]:
-    """The parameter table, with ArduPilot Rover defaults where they matter to a companion."""
+    """The parameter table: the names and values the real Rover 4.8-dev SITL answers with its
+    stock rover.parm (WP_SPEED 5, CRUISE_SPEED 5, WP_RADIUS 3, ATC_STR_RAT_FF 0.75, ATC_SPEED_P
+    0.1), except a few controller terms tuned to the simulator's hulls (docs/sim-differences.md).
+    Names are 4.8's: MAV_SYSID (was SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
+    GUID_TIMEOUT."""
     p: dict[str, float] = {
-        "SYSID_THISMAV": 1, "MAV_GCS_SYSID": 255, "RC_OVERRIDE_TIME": 3.0,
-        "WP_SPEED": 2.0, "WP_RADIUS": 2.0, "WP_ACCEL": 0.0, "RTL_SPEED": 0.0,
-        "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 40.0 if boat else 50.0, "SPEED_MAX": 0.0,
-        "LOIT_RADIUS": 2.0, "LOIT_SPEED_GAIN": 0.5, "ACRO_TURN_RATE": 180.0,
+        "MAV_SYSID": 1, "MAV_GCS_SYSID": 255, "RC_OVERRIDE_TIME": 3.0,
+        "WP_SPEED": 5.0, "WP_RADIUS": 3.0, "WP_ACCEL": 0.0, "RTL_SPEED": 0.0,
+        "CRUISE_SPEED": 5.0, "CRUISE_THROTTLE": 40.0 if boat else 50.0, "SPEED_MAX": 0.0,
+        "TURN_RADIUS": 0.9, "LOIT_RADIUS": 2.0, "LOIT_SPEED_GAIN": 0.5, "ACRO_TURN_RATE": 180.0,
         "FS_GCS_ENABLE": 0, "FS_GCS_TIMEOUT": 5.0, "FS_ACTION": 2, "FS_TIMEOUT": 1.5,
-        "FS_OPTIONS": 0, "FS_THR_ENABLE": 0, "FS_EKF_ACTION": 1, "FS_EKF_THRESH": 0.8,
+        "FS_OPTIONS": 0, "FS_THR_ENABLE": 1, "FS_EKF_ACTION": 1, "FS_EKF_THRESH": 0.8,
         "RCMAP_ROLL": 1, "RCMAP_PITCH": 2, "RCMAP_THROTTLE": 3, "RCMAP_YAW": 4,
         "FRAME_CLASS": 2 if boat else 1, "FRAME_TYPE": 0, "INITIAL_MODE": 0,
-        "GUID_TIMEOUT": GUIDED_TIMEOUT, "GUID_OPTIONS": 0, "MIS_DONE_BEHAVE": 0,
-        "ARMING_CHECK": 1, "ARMING_REQUIRE": 1, "PILOT_STEER_TYPE": 0,
-        # controller gains are tuned for the simulator's models (Rover's defaults are generic)
+        "GUID_OPTIONS": 0, "MIS_DONE_BEHAVE": 0,
+        "ARMING_SKIPCHK": 0, "ARMING_REQUIRE": 1, "PILOT_STEER_TYPE": 0,
+        # SERIAL1/SERIAL2 (TCP 5762/5763) speak MAVLink 2
+        "SERIAL0_PROTOCOL": 2, "SERIAL1_PROTOCOL": 2, "SERIAL2_PROTOCOL": 2,
         "ATC_STR_RAT_MAX": 120.0, "ATC_STR_ACC_MAX": 120.0,
-        "ATC_STR_ANG_P": 2.0, "ATC_STR_RAT_IMAX": 0.5,
-        "ATC_SPEED_P": 0.8 if boat else 0.5, "ATC_SPEED_I": 0.6 if boat else 0.5,
+        "ATC_STR_ANG_P": 2.0, "ATC_STR_RAT_IMAX": 0.5, "ATC_STR_RAT_FF": 0.75,
+        # speed loop: rover.parm's P; I and IMAX tuned to the simulator's hulls
+        "ATC_SPEED_P": 0.1, "ATC_SPEED_I": 0.6 if boat else 0.5,
         "ATC_SPEED_IMAX": 0.5,
         "ATC_ACCEL_MAX": 1.0, "ATC_DECEL_MAX": 0.0, "ATC_STOP_SPEED": 0.1,
         "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5,
-        "GPS_TYPE": 1, "GPS_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
-        "SR0_POSITION": 1, "SR0_EXTRA1": 1, "SR0_EXTRA2": 1, "SR0_EXTRA3": 1,
+        "GPS1_TYPE": 1, "GPS1_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
     }
-    if boat and not skid:  # a rudder needs flow: more feed-forward and gain
-        p.update({"ATC_STR_RAT_FF": 1.8, "ATC_STR_RAT_P": 1.5, "ATC_STR_RAT_I": 0.8})
+    if boat and not skid:  # a rudder needs flow: more gain on the rate error
+        p.update({"ATC_STR_RAT_P": 1.5, "ATC_STR_RAT_I": 0.8})
     else:
-        p.update({"ATC_STR_RAT_FF": 0.5 if boat else 0.6, "ATC_STR_RAT_P": 1.0,
-                  "ATC_STR_RAT_I": 0.5})
+        p.update({"ATC_STR_RAT_P": 1.0, "ATC_STR_RAT_I": 0.5})
     for i in range(1, 17):
         p[f"SERVO{i}_FUNCTION"] = FN_NONE
         p[f"SERVO{i}_MIN"] = 1100
@@ -165,8 +196,11 @@ class Autopilot:
     """Rover firmware logic. Times are seconds on the simulator clock."""
 
     def __init__(self, *, boat: bool = True, skid: bool = True, boot_time: float = 0.0,
-                 timeline: Timeline | None = None, params: dict[str, float] | None = None) -> None:
+                 timeline: Timeline | None = None, params: dict[str, float] | None = None,
+                 latlon: Callable[[float, float], tuple[float, float]] | None = None) -> None:
         self.boat = boat
+        # local x, y → (lat, lon) degrees, for the texts that name a place ("Set HOME to ...")
+        self.latlon = latlon or (lambda x, y: (0.0, 0.0))
         self.skid = skid
         self.boot_time = boot_time
         self.timeline = timeline or Timeline()
@@ -181,7 +215,9 @@ class Autopilot:
         self.ekf_origin: tuple[float, float] | None = None
         self.gps_has_fix = False  # set by the simulator from the GPS model each step
         self._initialised = False
-        self._announced: set[str] = set()
+        self._announced: set[str] = set()  # boot events said: home, origin, gps
+        self._boot_text = 0  # index of the next timed boot text
+        self._boot_times = [self.timeline.map(b.at) for b in BOOT_TEXTS]
         # RC input: the radio's values (SITL: centred), plus overrides with their time stamps.
         self.rc_radio = [1500] * 16
         self.rc_override: list[int | None] = [None] * 18
@@ -229,21 +265,34 @@ class Autopilot:
         self.out.texts.append((severity, text))
 
     def update_timeline(self, now: float) -> None:
-        """Advance the boot sequence: mode after init, EKF origin and home."""
+        """Advance the boot sequence: its texts, the mode after init, home, the EKF origin."""
         up = self.uptime(now)
         if not self._initialised and up >= self.timeline.initialised:
             self._initialised = True
             initial = int(self.params.get("INITIAL_MODE", 0))
             self._set_mode_internal(initial if initial in MODES and initial != INITIALISING
                                     else MANUAL)
-            self._text(SEVERITY_INFO, "ArduPilot Ready")
+        if self.home is None and up >= self.timeline.gps_fix and self.gps_has_fix:
+            self.home = (self.est.x, self.est.y)  # AP_GPS's first fix sets home
+            self._announced.add("home")
         if self.ekf_origin is None and up >= self.timeline.ekf_origin and self.gps_has_fix:
             self.ekf_origin = (self.est.x, self.est.y)
-            self.home = (self.est.x, self.est.y)
-            self._text(SEVERITY_INFO, "EKF3 IMU0 origin set")
+            self._announced.add("origin")
         if "gps" not in self._announced and up >= self.timeline.ekf_gps and self.gps_has_fix:
             self._announced.add("gps")
-            self._text(SEVERITY_INFO, "EKF3 IMU0 is using GPS")
+        while self._boot_text < len(BOOT_TEXTS):
+            b = BOOT_TEXTS[self._boot_text]
+            if b.event is not None:
+                if b.event not in self._announced:
+                    break
+            elif up < self._boot_times[self._boot_text]:
+                break
+            text = b.text
+            if b.event == "home" and self.home is not None:
+                lat, lon = self.latlon(*self.home)
+                text = text.format(lat=lat, lon=lon)
+            self._text(b.severity, text)
+            self._boot_text += 1
 
     # ------------------------------------------------------------------ modes
     def base_mode(self) -> int:
@@ -257,11 +306,15 @@ class Autopilot:
         return b
 
     def system_status(self) -> int:
-        if not self._initialised:
-            return 1  # MAV_STATE_BOOT
-        if self.failsafe_triggered:
-            return 5  # MAV_STATE_CRITICAL
-        return 4 if self.armed else 3  # ACTIVE / STANDBY
+        """GCS_MAVLINK_Rover::vehicle_system_status: CRITICAL in a GCS or EKF failsafe,
+        CALIBRATING while initialising, STANDBY in HOLD, otherwise ACTIVE (armed or not)."""
+        if self.failsafe_triggered or self.ekf_failsafe:
+            return MAV_STATE_CRITICAL
+        if self.mode == INITIALISING:
+            return MAV_STATE_CALIBRATING
+        if self.mode == HOLD:
+            return MAV_STATE_STANDBY
+        return MAV_STATE_ACTIVE
 
     @property
     def mode_name(self) -> str:
@@ -333,10 +386,12 @@ class Autopilot:
         if not self._initialised:
             return RESULT_FAILED
         if not self.arming_ready(now):
-            # The IMU consistency check is mandatory, even with force (AP_Arming::mandatory_checks).
-            self._text(SEVERITY_CRITICAL, "Arm: Accels inconsistent")
+            # The IMU consistency check is mandatory, even with force (AP_Arming::mandatory_checks);
+            # the real SITL's accelerometers settle first, then its gyros.
+            which = "Accels" if self.uptime(now) < self.timeline.gyros else "Gyros"
+            self._text(SEVERITY_CRITICAL, f"Arm: {which} inconsistent")
             return RESULT_FAILED
-        if not force and self.params.get("ARMING_CHECK", 1) != 0:
+        if not force and int(self.params.get("ARMING_SKIPCHK", 0)) != -1:
             # AP_Arming_Rover::gps_checks only matter in modes that need position/velocity:
             # a Rover arms in MANUAL with no GPS at all.
             needs = self.mode in _NEEDS_POSITION or self.mode in _NEEDS_VELOCITY
@@ -382,12 +437,14 @@ class Autopilot:
         self.have_att_target = True
 
     def set_position_target(self, *, type_mask: int, frame: str, x: float | None, y: float | None,
-                            vx: float, vy: float, yaw: float, yaw_rate: float, now: float) -> None:
+                            vx: float, vy: float, yaw: float, yaw_rate: float, now: float,
+                            message: str = "SET_POSITION_TARGET_LOCAL_NED") -> None:
         """SET_POSITION_TARGET_LOCAL_NED / GLOBAL_INT after frame conversion.
 
         x, y are the target in the simulator's local frame (east, north), already converted;
         vx, vy are north, east velocities as in the message (NED), or body forward/right when
-        frame == "body". Acceleration targets are not supported: refused with a STATUSTEXT.
+        frame == "body". Acceleration targets are not supported: refused with a STATUSTEXT
+        naming the message.
         """
         if self.mode != GUIDED:
             return
@@ -397,7 +454,8 @@ class Autopilot:
         yaw_ignore = bool(type_mask & YAW_IGNORE)
         rate_ignore = bool(type_mask & YAW_RATE_IGNORE)
         if not acc_ignore:
-            self._text(SEVERITY_WARNING, "Guided: acceleration targets not supported")
+            # GCS_MAVLINK_Rover::send_acc_ignore_must_be_set_message
+            self._text(SEVERITY_INFO, f"Ignoring {message}; set ACC_IGNORE in mask")
             return
         speed = 0.0
         heading = 0.0
@@ -526,7 +584,7 @@ class Autopilot:
             return RESULT_FAILED
         fn = int(self.params.get(f"SERVO{channel}_FUNCTION", 0))
         if fn not in (FN_NONE, 1) and not 51 <= fn <= 66:  # none, RCPassThru, RCINn
-            self._text(SEVERITY_INFO, f"Channel {channel} is already in use")
+            self._text(SEVERITY_INFO, f"ServoRelayEvent: Channel {channel} is already in use")
             return RESULT_FAILED
         self.servo_override[channel] = int(pwm)
         return RESULT_ACCEPTED
@@ -601,7 +659,12 @@ class Autopilot:
                 and now - self.failsafe_start > self.params.get("FS_TIMEOUT", 1.5)
                 and self.mode != RTL and in_hold_ok):
             self.failsafe_triggered = self.failsafe_bits
-            self._text(SEVERITY_WARNING, "GCS Failsafe")
+            # Rover::failsafe_trigger names whichever check first sees FS_TIMEOUT pass; with
+            # FS_THR_ENABLE on (the default) the radio check runs every loop and is nearly
+            # always first, so a GCS failsafe is announced as "Radio Failsafe" (measured). The
+            # radio itself never fails here (the simulated receiver is always valid).
+            who = "Radio" if int(self.params.get("FS_THR_ENABLE", 0)) else "GCS"
+            self._text(SEVERITY_WARNING, f"{who} Failsafe")
             self.rc_override = [None] * 18
             if self.mode == AUTO and int(self.params["FS_GCS_ENABLE"]) == 2:
                 self._text(SEVERITY_WARNING, "Failsafe - Continuing Auto Mode")
@@ -694,10 +757,10 @@ class Autopilot:
             self._stop(dt)
 
     def _guided_timeout(self, now: float) -> None:
+        """ModeGuided: a heading or rate target not refreshed for 3 s (fixed) stops the vehicle."""
         if (self.guided_sub in ("heading", "rate") and self.have_att_target
-                and now - self.guided_target_time > self.params.get("GUID_TIMEOUT", 3.0)):
-            secs = max(self.params.get("GUID_TIMEOUT", 3.0), 0.1)
-            self._text(SEVERITY_WARNING, f"target not received last {secs:.1f} secs, stopping")
+                and now - self.guided_target_time > GUIDED_TIMEOUT):
+            self._text(SEVERITY_WARNING, GUIDED_TIMEOUT_TEXT)
             self.have_att_target = False
 
     def _guided(self, now: float, dt: float) -> None:

@@ -21,6 +21,7 @@ from pymavlink.dialects.v20 import ardupilotmega as M
 from mavhelm.sitl.autopilot import Estimate, Timeline
 from mavhelm.sitl.truth import Truth
 
+GPS_DETECTED_AT = 9.7  # s on the measured timeline: "GPS 1: detected u-blox" (fix 0 before)
 GPS_NO_FIX_DOP = 9999  # a receiver without a fix reports DOP 99.99
 GPS_WANDER_TAU = 30.0  # s, correlation time of the receiver's slow random-walk error
 HISTORY_LEN = 500  # truth samples kept for GPS latency: the last 10 s at 50 Hz
@@ -28,6 +29,11 @@ GLITCH_GATE = 10.0  # m, innovation beyond which a fix is treated as a glitch
 GLITCH_RESET = 5.0  # s a glitch must last before the filter resets onto the GPS
 FIX_GAIN = 0.3  # share of the innovation a good fix pulls the estimate by
 VEL_FRESH = 0.5  # s a fix's velocity is trusted for
+# The real SITL's EKF3 yaw (ATTITUDE) against its own truth (SIMSTATE), measured on Rover
+# 4.8-dev: +0.45° at rest, and it trails the truth while turning (-0.8° at ~17°/s): an offset
+# and a lag of ~70 ms reproduce both.
+EKF_YAW_OFFSET_DEG = 0.45
+EKF_YAW_LAG_S = 0.07
 
 FaultSource = Callable[[str, float], list[Any]]
 RngSource = Callable[[str], np.random.Generator]
@@ -121,7 +127,7 @@ class Estimator:
             bias[i] += -k * bias[i] + sigma * math.sqrt(2 * k) * rng.normal()
         white = rng.normal(0.0, 1.0, 2) * (sigma / 8.0)
         fix_at = self.timeline.gps_fix
-        if up < fix_at * 0.3:
+        if up < self.timeline.map(GPS_DETECTED_AT):
             self.gps = None  # not yet detected
             self.has_fix = False
             return True
@@ -170,8 +176,9 @@ class Estimator:
         (have_origin) the filter sits on the fix; afterwards it keeps an absolute position
         for dr_time (SIM_EKF_DR_TIME) seconds after the last fix, then gives up on it.
         """
-        est.heading = (math.degrees(heading) + compass_bias) % 360.0
         est.yaw_rate = math.degrees(yaw_rate)
+        est.heading = (math.degrees(heading) + compass_bias + EKF_YAW_OFFSET_DEG
+                       - EKF_YAW_LAG_S * est.yaw_rate) % 360.0
         g = self.gps
         fresh = g is not None and g.fix >= 3 and g.t == t
         was_lost = self.last_fix_t is None or t - self.last_fix_t >= dr_time

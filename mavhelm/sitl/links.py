@@ -250,20 +250,38 @@ class LinkHub:
         self.scenario = scenario
         self.new_links: list[Link] = []
         self._accepted: dict[int, int] = {}
+        self.host = host
         for port in ports:
-            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            s.bind((host, int(port)))
-            s.listen(8)
-            s.setblocking(False)
-            self.servers.append(s)
-            self.ports.append(s.getsockname()[1])
+            self.listen(port)
         for j, (uhost, uport) in enumerate(udp_out):
             u = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             u.setblocking(False)
             u.connect((uhost, int(uport)))
             self._add(Link(u, (uhost, int(uport)), len(self.ports) + j, "udp", *self._src,
                            scenario=scenario))
+
+    def listen(self, port: int) -> int:
+        """Open one more TCP server port (0: any free one); returns its number. Its index in
+        ``ports`` is its link index."""
+        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((self.host, int(port)))
+            s.listen(8)
+        except OSError:
+            s.close()
+            raise
+        s.setblocking(False)
+        self.servers.append(s)
+        self.ports.append(s.getsockname()[1])
+        return self.ports[-1]
+
+    def set_source(self, system: int, component: int = 1) -> None:
+        """The (system, component) every link sends as, now and for links accepted later."""
+        self._src = (system, component)
+        for link in self.links:
+            link.mav.srcSystem = system
+            link.mav.srcComponent = component
 
     def _add(self, link: Link) -> None:
         self.links.append(link)

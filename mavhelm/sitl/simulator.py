@@ -25,6 +25,7 @@ from mavhelm.sitl import boat, rover
 from mavhelm.sitl.estimator import Estimator
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.links import Link, LinkHub
+from mavhelm.sitl.statustext import BANNER, chunks
 from mavhelm.sitl.telemetry import HEARTBEAT, Telemetry
 from mavhelm.sitl.truth import Truth
 
@@ -65,6 +66,19 @@ _ORDER_INDEX = {m: i for i, m in enumerate(_ORDER)}
 KNOWN = set(_ORDER) | {M.MAVLINK_MSG_ID_HOME_POSITION, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
                        M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE}
 
+# The simulation's own parameters. Wind and wave names and defaults are ArduPilot SITL's
+# (SIM_WIND_DIR: where the wind comes from); the waves are stored only, not simulated. The rest
+# are the simulator's: SIM_CURRENT_* (water current, flowing *to*), SIM_DEPTH, SIM_GPS_NOISE
+# (receiver wander σ, m) and SIM_EKF_DR_TIME (s of dead reckoning before the estimate is lost).
+SIM_PARAMS: dict[str, float] = {
+    "SIM_WIND_SPD": 0.0, "SIM_WIND_DIR": 180.0, "SIM_WIND_T": 1.0,
+    "SIM_WAVE_ENABLE": 0.0, "SIM_WAVE_AMP": 0.5, "SIM_WAVE_DIR": 0.0, "SIM_WAVE_LENGTH": 10.0,
+    "SIM_WAVE_SPEED": 0.5,
+    "SIM_CURRENT_SPD": 0.0, "SIM_CURRENT_DIR": 0.0, "SIM_DEPTH": 20.0,
+    "SIM_GPS_NOISE": 0.4, "SIM_EKF_DR_TIME": 10.0,
+}
+_INT_PARAMS = {"SIM_WIND_T", "SIM_WAVE_ENABLE"}
+
 # AC_Fence parameters with Rover's defaults: FENCE_TYPE 6 = circle + polygon, not enabled.
 FENCE_PARAMS = {"FENCE_ENABLE": 0.0, "FENCE_TYPE": 6.0, "FENCE_ACTION": 1.0,
                 "FENCE_RADIUS": 300.0, "FENCE_MARGIN": 2.0}
@@ -85,7 +99,8 @@ class Simulator:
                  udp_out: Sequence[tuple[str, int]] = (), home: Origin = DEFAULT_HOME,
                  start_heading: float = 0.0, fast_start: bool = False, scenario: Any = None,
                  params: dict[str, float] | None = None, seed: int = 0,
-                 serial_sensors: Sequence[Any] = (), epoch: float | None = None) -> None:
+                 serial_sensors: Sequence[Any] = (), epoch: float | None = None,
+                 wait_for_client: bool = False) -> None:
         if vehicle not in ("boat", "rover"):
             raise ValueError(f"vehicle must be boat or rover, not {vehicle!r}")
         self.vehicle = vehicle
@@ -107,16 +122,15 @@ class Simulator:
         self._gps_rng = np.random.default_rng([seed, 1])
         skid = self.variant == "skid"
         timeline = ap.Timeline.fast() if fast_start else ap.Timeline()
-        sim_params = {"SIM_CURRENT_SPD": 0.0, "SIM_CURRENT_DIR": 0.0, "SIM_WIND_SPD": 0.0,
-                      "SIM_WIND_DIR": 0.0, "SIM_DEPTH": 20.0 if self.is_boat else 0.0,
-                      "SIM_GPS_NOISE": 0.4, "SIM_EKF_DR_TIME": 10.0}
+        sim_params = dict(SIM_PARAMS)
+        sim_params["SIM_DEPTH"] = 20.0 if self.is_boat else 0.0
         merged = dict(sim_params)
         merged.update(FENCE_PARAMS)
         merged.update({k.upper(): v for k, v in (params or {}).items()})
         self.autopilot = ap.Autopilot(boat=self.is_boat, skid=skid, boot_time=self.boot,
-                                      timeline=timeline, params=merged)
+                                      timeline=timeline, params=merged, latlon=home.to_global)
         self.params = self.autopilot.params
-        self._sysid = int(self.params["SYSID_THISMAV"])
+        self._sysid = int(self.params["MAV_SYSID"])
         hdg = math.radians(start_heading % 360.0)
         if self.is_boat:
             self._model_params: Any = boat.BoatParams(variant=self.variant)
@@ -133,14 +147,20 @@ class Simulator:
         self._wheels = [0.0, 0.0]
         self._compass_bias = 0.0
         self.estimator = Estimator(self.boot,
-                                   max(0.05, self.params.get("GPS_RATE_MS", 200) / 1000.0),
+                                   max(0.05, self.params.get("GPS1_RATE_MS", 200) / 1000.0),
                                    self._gps_rng, self.autopilot.timeline, faults=self._faults,
                                    named_rng=self._srng)
         self.telemetry = Telemetry(self.autopilot, self.estimator, home=home, boot=self.boot,
                                    epoch=self.epoch, is_boat=self.is_boat)
         self._origin_sent = False
-        self.hub = LinkHub(ports, host, udp_out, srcSystem=self._sysid, srcComponent=1,
-                           scenario=scenario)
+        self._text_id = 0  # id of the last chunked STATUSTEXT
+        # wait_for_client: like the real SITL, listen on the first port only and keep the clock
+        # (boot) stopped until a client connects there; then open the other ports
+        self.started = not wait_for_client
+        ports = list(ports)
+        self._later_ports = [] if self.started else ports[1:]
+        self.hub = LinkHub(ports if self.started else ports[:1], host, udp_out,
+                           srcSystem=self._sysid, srcComponent=1, scenario=scenario)
         self._defaults: dict[int, float] = {HEARTBEAT: 1.0}
         for msgs in STREAMS.values():
             for mid in msgs:
@@ -172,6 +192,10 @@ class Simulator:
     def service(self, now: float) -> None:
         """Accept clients, read and obey every link, send the immediate replies. Never blocks."""
         self.hub.accept()
+        if not self.started:
+            if not any(link.kind == "tcp" and link.index == 0 for link in self.hub.links):
+                return
+            self._start(now)
         self._init_new_links(now)
         for link in list(self.hub.links):
             link.update_faults(now)
@@ -180,9 +204,23 @@ class Simulator:
         self._drain_outbox(now)
         self._flush()
 
+    def _start(self, now: float) -> None:
+        """The first client on the first port: the clock starts now, the other ports open."""
+        self.started = True
+        self.boot = self._t = float(now)
+        self._n = 0
+        self.autopilot.boot_time = self.boot
+        self.estimator.boot = self.estimator.next_gps = self.boot
+        self.telemetry.boot = self.boot
+        for port in self._later_ports:
+            self.hub.listen(port)
+        self._later_ports = []
+
     def step(self, now: float) -> None:
         """service(now), physics up to now, due telemetry, then the serial sensors."""
         self.service(now)
+        if not self.started:
+            return
         # compass bias is looked up once per step (a fault window is never shorter than a tick)
         self._compass_bias = sum(float(f.params.get("deg", 0.0))
                                  for f in self._faults("compass_bias", now))
@@ -309,7 +347,8 @@ class Simulator:
             out.heartbeat = False
             self._broadcast(self._build(HEARTBEAT, now))
         for sev, text in out.texts:
-            self._broadcast(M.MAVLink_statustext_message(sev, text.encode()[:50], 0, 0))
+            for msg in self._statustexts(sev, text):
+                self._broadcast(msg)
         out.texts.clear()
         for seq in out.reached:
             self._broadcast(M.MAVLink_mission_item_reached_message(seq))
@@ -317,6 +356,16 @@ class Simulator:
         for name in out.params:
             self._broadcast(self._param_value(name))
         out.params.clear()
+
+    def _statustexts(self, severity: int, text: str) -> list[Any]:
+        """STATUSTEXT message(s) for a text: long ones in 50-byte MAVLink 2 chunks sharing an
+        id (1..65535), as ArduPilot sends them."""
+        parts = chunks(text)
+        if len(parts) == 1:
+            return [M.MAVLink_statustext_message(severity, parts[0][1], 0, 0)]
+        self._text_id = self._text_id % 65535 + 1
+        return [M.MAVLink_statustext_message(severity, raw, self._text_id, seq)
+                for seq, raw in parts]
 
     def _emit_streams(self, now: float) -> None:
         cache: dict[int, Any] = {}
@@ -350,6 +399,8 @@ class Simulator:
     # ------------------------------------------------------------------ parameters
     def _param_type(self, name: str) -> int:
         v = self.params[name]
+        if name in _INT_PARAMS:
+            return M.MAV_PARAM_TYPE_INT8
         float_like = (not float(v).is_integer() or any(
             k in name for k in ("SPEED", "TIME", "RADIUS", "ATC_", "WP_", "CRUISE", "LOIT_",
                                 "SIM_", "GAIN", "ACCEL", "TURN_RATE", "MARGIN")))
@@ -369,12 +420,10 @@ class Simulator:
         self.autopilot.invalidate()
         if name.startswith("SIM_"):
             self.env = self._env_from_params()
-        if name == "SYSID_THISMAV":
+        if name == "MAV_SYSID":
             self._sysid = int(value)
-            for link in self.hub.links:
-                link.mav.srcSystem = self._sysid
-            self.hub._src = (self._sysid, 1)
-        if name == "GPS_RATE_MS":
+            self.hub.set_source(self._sysid, 1)
+        if name == "GPS1_RATE_MS":
             self.estimator.gps_period = max(0.05, value / 1000.0)
         return True
 
@@ -437,6 +486,9 @@ class Simulator:
             vals = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
             a.rc_override_msg(src, vals, now)
         elif t == "PARAM_REQUEST_LIST":
+            # GCS_MAVLINK::handle_param_request_list sends the banner first, on this link
+            for text in BANNER:
+                link.send(M.MAVLink_statustext_message(ap.SEVERITY_INFO, text.encode(), 0, 0))
             for name in self._param_names:
                 link.send(self._param_value(name))
         elif t == "PARAM_REQUEST_READ":
@@ -617,4 +669,5 @@ class Simulator:
                 return
             x, y = self.home.to_local(msg.lat_int / 1e7, msg.lon_int / 1e7)
         a.set_position_target(type_mask=msg.type_mask, frame="ned", x=x, y=y, vx=msg.vx,
-                              vy=msg.vy, yaw=msg.yaw, yaw_rate=msg.yaw_rate, now=now)
+                              vy=msg.vy, yaw=msg.yaw, yaw_rate=msg.yaw_rate, now=now,
+                              message="SET_POSITION_TARGET_GLOBAL_INT")

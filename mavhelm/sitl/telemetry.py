@@ -22,6 +22,15 @@ from mavhelm.sitl.truth import Truth
 HEARTBEAT = M.MAVLINK_MSG_ID_HEARTBEAT
 GPS_UNKNOWN_DOP = 65535  # AP_GPS before a receiver is detected
 FENCE_ALT_MAX, FENCE_CIRCLE, FENCE_POLYGON, FENCE_ALT_MIN = 1, 2, 4, 8  # FENCE_TYPE bits
+GPS_FIX_TYPE_SITL = M.GPS_FIX_TYPE_RTK_FIXED  # SITL's simulated u-blox reports 6
+
+# SYS_STATUS sensor bits as the real Rover 4.8 SITL (motorboat) reports them. Present: gyro,
+# accel, mag, baro, GPS, motor outputs, RC receiver, ... (0x1331dc2f, the geofence bit from
+# FENCE_TYPE); enabled and healthy before the GPS fix and the AHRS checks: the values it sends
+# at boot. GPS, AHRS and pre-arm health are added as they become true (see build()).
+SYS_PRESENT = 0x1331DC2F
+SYS_ENABLED = 0x1201802F
+SYS_HEALTH = 0x0311810F
 
 
 def wrap_pi(a: float) -> float:
@@ -108,13 +117,20 @@ class Telemetry:
             return M.MAVLink_vfr_hud_message(spd, spd, int(est.heading) % 360,
                                              int(round(abs(a.mix()[1]) * 100)), 0.0, 0.0)
         if mid == M.MAVLINK_MSG_ID_SYS_STATUS:
-            sensors = 0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x10000000
-            present, enabled = sensors, sensors
-            health = sensors
-            if not a.gps_has_fix:
-                health &= ~0x20
-            if not est.position_ok:
-                health &= ~0x200000
+            fence = M.MAV_SYS_STATUS_GEOFENCE
+            present, enabled, health = SYS_PRESENT & ~fence, SYS_ENABLED & ~fence, SYS_HEALTH
+            if self.estimator.gps is not None:  # a receiver was detected
+                enabled |= M.MAV_SYS_STATUS_SENSOR_GPS
+            if a.gps_has_fix:
+                health |= M.MAV_SYS_STATUS_SENSOR_GPS
+            if a.arming_ready(now):
+                # the AHRS is reported (enabled, healthy) once its checks settle, and the
+                # pre-arm checks pass then (Rover 4.8 SITL: 23 s, seen in the 1 Hz SYS_STATUS
+                # at 23-24 s); an EKF failsafe takes the AHRS health away
+                enabled |= M.MAV_SYS_STATUS_AHRS
+                if not a.ekf_failsafe:
+                    health |= M.MAV_SYS_STATUS_AHRS
+                health |= M.MAV_SYS_STATUS_PREARM_CHECK
             fence_present, fence_enabled = fence_status(a.params)
             if fence_present:
                 present |= M.MAV_SYS_STATUS_GEOFENCE
@@ -207,7 +223,7 @@ class Telemetry:
                     | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
                     | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
                     | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
-            version = (4 << 24) | (7 << 16) | (0 << 8) | 0  # 4.7.0-dev
+            version = (4 << 24) | (8 << 16) | (0 << 8) | 0  # 4.8.0-dev, the measured build
             return M.MAVLink_autopilot_version_message(caps, version, 0, 0, 0, [0] * 8, [0] * 8,
                                                        [0] * 8, 0, 0, 0)
         if mid == M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT:
@@ -227,10 +243,11 @@ class Telemetry:
         """GPS_RAW_INT from the receiver's latest sample (AP_GPS's view, not the EKF's)."""
         e = self.estimator
         g = e.gps
-        t_us = int((now + self.epoch) * 1e6) if e.ever_fix else 0
         if g is None:
             return M.MAVLink_gps_raw_int_message(0, M.GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
                                                  GPS_UNKNOWN_DOP, GPS_UNKNOWN_DOP, 0, 0, 0)
+        # time_usec: the sample's time since boot, as the real SITL sends it
+        t_us = int(max(0.0, g.t - self.boot) * 1e6)
         if g.fix < 3:
             lat, lon = self.latlon(g.x, g.y) if e.ever_fix else (0, 0)
             return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_NO_FIX, lat, lon, 0,
@@ -238,7 +255,7 @@ class Telemetry:
         lat, lon = self.latlon(g.x, g.y)
         vel = math.hypot(g.vx, g.vy)
         cog = int(round(math.degrees(math.atan2(g.vx, g.vy)) * 100)) % 36000 if vel > 0.05 else 0
-        return M.MAVLink_gps_raw_int_message(t_us, M.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, g.eph,
+        return M.MAVLink_gps_raw_int_message(t_us, GPS_FIX_TYPE_SITL, lat, lon, 0, g.eph,
                                              200, int(round(vel * 100)), cog, g.sats, 0, 300,
                                              500, 150, 0, 0)
 
