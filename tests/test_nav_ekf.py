@@ -140,6 +140,37 @@ def test_position_update_is_the_textbook_kalman_correction() -> None:
     assert ekf.mahalanobis == pytest.approx(3.0 / 5.0)  # filterpy's, after the update
 
 
+def test_the_short_form_update_equals_filterpys_joseph_form() -> None:
+    """The update is written out (P − K S Kᵀ) for speed; on the filter's real updates —
+    a converged run's ranges, body velocity and yaw together — it matches filterpy's own
+    Joseph-form ``update`` to round-off."""
+    from filterpy.kalman import ExtendedKalmanFilter
+
+    ekf = converged_filter()
+    ekf.advance(ekf.t + 0.2)
+    guess = [Range(ekf.t, "A", 0.0), Range(ekf.t, "C", 0.0), BodyVelocity(ekf.t, 0, 0, 0),
+             Yaw(ekf.t, 0.0)]
+    hx0 = [ekf._linearise(o).hx for o in guess]  # what the filter expects, nudged below
+    slice_ = [Range(ekf.t, "A", hx0[0][0] + 0.4), Range(ekf.t, "C", hx0[1][0] - 0.3),
+              BodyVelocity(ekf.t, hx0[2][0] + 0.02, hx0[2][1] - 0.03, hx0[2][2] + 0.01),
+              Yaw(ekf.t, hx0[3][0] + 0.01)]
+    rows = [ekf._linearise(o) for o in slice_]
+    H = np.vstack([r.H for r in rows])
+    hx = np.concatenate([r.hx for r in rows])
+    z = np.concatenate([r.z for r in rows])
+    R = np.diag(np.concatenate([r.r for r in rows]))
+    reference = ExtendedKalmanFilter(dim_x=ekf.dim, dim_z=len(z))
+    reference.x, reference.P = ekf.x.copy(), ekf.P.copy()
+    reference.update(z.reshape(-1, 1), lambda _x: H, lambda _x: hx.reshape(-1, 1), R=R,
+                     residual=lambda a, b: np.where(np.arange(len(z))[:, None] == 5,
+                                                    (a - b + np.pi) % (2 * np.pi) - np.pi,
+                                                    a - b))
+    result = ekf.update(slice_)
+    assert result.rejected == []
+    assert np.allclose(ekf.x, reference.x, atol=1e-9)
+    assert np.allclose(ekf.P, reference.P, atol=1e-12)
+
+
 def test_yaw_innovation_wraps_around_pi() -> None:
     cfg = EKFConfig(sigma_yaw=0.1)
     ekf = EKF(0.0, 0, 0, math.pi - 0.05, config=cfg)

@@ -340,7 +340,8 @@ class Navigator(App):
         if not math.isfinite(value):
             return
         self.notify(name, value, t)
-        self._route(name, Message(name, value, t, self.name), now)
+        if name in self._inputs:
+            self._route(name, Message(name, value, t, self.name), now)
 
     def iterate(self, now: float) -> None:
         if self.fusion is not None:
