@@ -116,7 +116,37 @@ def test_autopilot_clock_sleeps_in_autopilot_time():
     from mavhelm.core.clock import AutopilotClock
 
     clock = AutopilotClock()
-    clock.warp = 50.0
+    clock.warp, clock.rate_known = 50.0, True
     t0 = clock.now()
     clock.sleep_until(t0 + 1.0)  # one autopilot second at 50x is 20 ms of wall time
     assert clock.now() >= t0 + 1.0
+
+
+def test_until_the_rate_is_measured_the_clock_polls():
+    """At start-up an unknown rate is not taken for 1x: the loop wakes every 10 ms to read
+    the link (a SITL at 20x would otherwise be read two autopilot seconds at a time)."""
+    import time
+
+    from mavhelm.core.clock import AutopilotClock
+
+    clock = AutopilotClock()
+    assert not clock.rate_known
+    t0 = time.monotonic()
+    clock.sleep_until(clock.now() + 1.0)
+    assert time.monotonic() - t0 < 0.1
+
+
+def test_a_clock_ahead_of_the_autopilot_does_not_stop_the_ticks():
+    """Overshoot (the rate measured on a burst) freezes now() until the stamps catch up; the
+    tick loop still wakes after one period's wall time, so it goes on reading the link."""
+    import time
+
+    from mavhelm.core.clock import AutopilotClock
+
+    clock = AutopilotClock()
+    clock.observe(0.0)
+    clock.warp, clock.rate_known = 10.0, True
+    clock._last_now = clock.now() + 5.0  # ran 5 autopilot seconds ahead
+    t0 = time.monotonic()
+    clock.sleep_until(clock.now() + 0.1)
+    assert time.monotonic() - t0 < 0.25  # 0.1 s at 10x is 10 ms; frozen would be 0.5 s

@@ -75,6 +75,8 @@ class AutopilotClock:
         self._last_boot: float | None = None
         self._samples: list[tuple[float, float]] = []
         self.warp = 1.0
+        self.rate_known = False
+        """False until the rate has been measured over ``0.2`` wall seconds of stamps."""
         self._last_now = self._t_obs
 
     def now(self) -> float:
@@ -96,9 +98,19 @@ class AutopilotClock:
         first_wall, first_boot = self._samples[0]
         if wall - first_wall >= 0.2 and boot_s > first_boot:
             self.warp = min(1000.0, max(0.01, (boot_s - first_boot) / (wall - first_wall)))
+            self.rate_known = True
         self._t_obs = boot_s + self._boot_offset
         self._wall_obs = wall
 
     def sleep_until(self, t: float) -> None:
-        while (ahead := t - self.now()) > 0:
-            time.sleep(min(0.02, ahead / self.warp))
+        """Sleep the wall time the autopilot needs to reach ``t`` at its measured rate, once.
+        Not "until now() reads t": a clock that ran ahead of the autopilot (its rate
+        overestimated from a burst of backlog read at start-up) stands still until the
+        stamps catch up, and waiting on it would stop the very reading that corrects it
+        (the helm would go online late)."""
+        ahead = t - self.now()
+        if ahead > 0:
+            # until the rate is measured, poll: at an assumed 1x a SITL running at 20x
+            # would be read two autopilot seconds at a time, an operator's mode change
+            # answered a second late
+            time.sleep(ahead / self.warp if self.rate_known else min(ahead, 0.01))
