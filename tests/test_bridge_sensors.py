@@ -295,7 +295,10 @@ def test_real_sitl_rangefinders_and_truth_become_bus_variables(real_sitl) -> Non
     assert set(altitude) <= heard[DOWN] and set(ahead) <= heard[FORWARD]
     assert all(0.2 <= v <= 7.0 for v in altitude + ahead)  # RNGFNDx_MIN..MAX, defaults
     assert {m.name for m in mail if m.name.startswith("AP_DISTANCE_")} == {"AP_DISTANCE_0"}
-    assert not [m for m in mail if m.name in ("MAVLINK_ERROR", "MAVLINK_BAD_PACKETS")]
+    assert not [m for m in mail if m.name == "MAVLINK_ERROR"]  # every message converted
+    # the bytes already queued on the SITL's port when the link opens may start mid-frame
+    # (seen once in ten runs under load): only that first read may count a bad packet
+    assert not [m for m in mail if m.name == "MAVLINK_BAD_PACKETS" and m.time > 0.1]
     lat, lng, yaw = truth[-1]
     x, y = ORIGIN.to_local(lat * 1e-7, lng * 1e-7)
     assert math.hypot(x, y) < 1.0 and math.degrees(yaw) % 360.0 == pytest.approx(90.0, abs=1.0)

@@ -84,6 +84,7 @@ Use from a navigator, each tick: ``advance(now − lag)``, ``update(observations
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -605,7 +606,7 @@ class EKF:
             return UpdateResult()
         parts = [self._linearise(obs) for obs in observations]
         rows = _stack(parts)
-        first = np.cumsum([0] + [len(p.z) for p in parts])
+        first = list(itertools.accumulate([len(p.z) for p in parts], initial=0))
         y = self._residual(rows)
         PHt = self.kf.P @ rows.H.T
         S = rows.H @ PHt + np.diag(rows.r)

@@ -146,6 +146,8 @@ class Fusion:
         self._rules = {r.sensor: r for r in config.rejection}
         self._channels: dict[tuple[str, str], SensorChannel] = {}
         self._xlog_header = False
+        self.logging = True
+        """Build the .olog/.xlog lines; an owner with nowhere to write them turns it off."""
 
     @property
     def online(self) -> bool:
@@ -202,7 +204,8 @@ class Fusion:
             return None
         if self.ekf is None:
             return None
-        self._xlog()
+        if self.logging:
+            self._xlog()
         self.warnings.extend(self.ekf.warnings)
         self.ekf.warnings.clear()
         return self._forecast(now)
@@ -352,6 +355,8 @@ class Fusion:
 
     def _log(self, r: Reading, fate: str, detail: str = "") -> None:
         self.counts[fate] = self.counts.get(fate, 0) + 1
+        if not self.logging:
+            return
         self.olog.append(f"{r.obs.t:.3f} {r.sensor.name} {r.sensor.type} "
                          f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
 

@@ -177,6 +177,7 @@ class LSQ:
         self.last_fix: Fix | None = None
         self.rejected = 0
         self.failures = 0
+        self._gates: dict[int, float] = {}
 
     def add(self, obs: Range) -> Fix | None:
         if obs.beacon not in self.beacons or not math.isfinite(obs.z):
@@ -228,7 +229,12 @@ class LSQ:
         return -float(chi2.logsf(fix.chi2, fix.dof)) if fix.dof > 0 else 0.0
 
     def _consistent(self, fix: Fix) -> bool:
-        return fix.dof == 0 or fix.chi2 <= chi2.ppf(self.gate_probability, fix.dof)
+        if fix.dof == 0:
+            return True
+        gate = self._gates.get(fix.dof)
+        if gate is None:
+            gate = self._gates[fix.dof] = float(chi2.ppf(self.gate_probability, fix.dof))
+        return fix.chi2 <= gate
 
 
 class DivergenceMonitor:

@@ -272,6 +272,7 @@ class Navigator(App):
         self.fusion = fusion
         self.reader = (SensorReader(sensors or [], fusion.config.beacons, sound_speed)
                        if fusion is not None else None)
+        self._log: NavLogSink | None = None
         self.log = log
         self.log_settings = log_settings or {}
         self.failure_posted = False
@@ -301,6 +302,17 @@ class Navigator(App):
         if block is None:
             raise MissionError(mission.path, 0, "the mission has no ProcessConfig = pNav block")
         return cls.from_block(bus, block, log)
+
+    @property
+    def log(self) -> NavLogSink | None:
+        """Where the .olog/.xlog lines go; None: they are not even formatted."""
+        return self._log
+
+    @log.setter
+    def log(self, sink: NavLogSink | None) -> None:
+        self._log = sink
+        if self.fusion is not None:
+            self.fusion.logging = sink is not None
 
     @property
     def wants_log(self) -> bool:
