@@ -131,10 +131,13 @@ def solve(ranges: Sequence[Range], beacons: dict[str, Beacon], *,
     d = np.maximum(np.sqrt(dx * dx + dy * dy + bz * bz), 1e-6)
     J = np.column_stack([dx / d, dy / d, np.ones_like(d)])[:, : 3 if estimate_offset else 2]
     normal = (J * w[:, None] ** 2).T @ J
-    if np.linalg.cond(normal) > 1e8:
+    eig = np.linalg.eigvalsh(normal)  # ascending: a near-zero first one is a degenerate net
+    if not eig[0] > 1e-8 * eig[-1]:
         return None
     cov = np.linalg.inv(normal)
-    sigma = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2])[-1]), 0.0))
+    c = cov[:2, :2]
+    half_sum, half_diff = (c[0, 0] + c[1, 1]) / 2, (c[0, 0] - c[1, 1]) / 2
+    sigma = math.sqrt(max(half_sum + math.hypot(half_diff, c[0, 1]), 0.0))
     residual = z - (d + p[2])
     return Fix(t=max(r.t for r in ranges), x=float(p[0]), y=float(p[1]), sigma=sigma,
                rms=float(np.sqrt(np.mean(residual**2))), n=len(ranges), beacons=tuple(names),
