@@ -31,7 +31,6 @@ from collections import deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-import numpy as np
 from scipy.stats import chi2
 
 from mavhelm.nav.ekf import Beacon, Range
@@ -70,85 +69,121 @@ def solve(ranges: Sequence[Range], beacons: dict[str, Beacon], *,
     The iteration starts from ``guess``; without one, from the beacons' centroid and then six
     points around the net until a solution fits the ranges within 3 σ each, keeping the
     lowest-residual one, so the mirror solution of a poor geometry is not taken by accident.
+
+    Plain Python floats, not numpy: with 3 to 8 ranges and 2 or 3 unknowns numpy's per-call
+    overhead is the whole cost (measured 680 µs a fix with numpy, a fifth of a Plaza replay).
     """
     names = sorted({r.beacon for r in ranges})
     need = 4 if estimate_offset else 3
     if len(names) < need:
         return None
-    bx = np.array([beacons[r.beacon].x for r in ranges])
-    by = np.array([beacons[r.beacon].y for r in ranges])
-    bz = np.array([beacons[r.beacon].z for r in ranges])
-    z = np.array([r.z - beacons[r.beacon].offset for r in ranges])
-    w = np.array([1.0 / max(r.sigma, 1e-6) for r in ranges])
-    cx, cy = float(np.mean([beacons[n].x for n in names])), float(np.mean(
-        [beacons[n].y for n in names]))
-    spread = max(float(np.max(np.hypot(bx - cx, by - cy))), 1.0)
+    rows = [(beacons[r.beacon].x, beacons[r.beacon].y, beacons[r.beacon].z ** 2,
+             r.z - beacons[r.beacon].offset, 1.0 / max(r.sigma, 1e-6)) for r in ranges]
+    k = 3 if estimate_offset else 2
+    xs = [beacons[n].x for n in names]
+    ys = [beacons[n].y for n in names]
+    cx, cy = sum(xs) / len(xs), sum(ys) / len(ys)
+    spread = max(max(math.hypot(bx - cx, by - cy) for bx, by, *_ in rows), 1.0)
     if guess is not None:
         starts = [guess]
     else:
         starts = [(cx, cy)] + [(cx + spread * math.cos(a), cy + spread * math.sin(a))
-                               for a in np.linspace(0, 2 * math.pi, 6, endpoint=False)]
+                               for a in (2 * math.pi * j / 6 for j in range(6))]
     good_enough = 9.0 * len(ranges)  # within 3 σ per range: stop trying other starts
-    best: tuple[float, np.ndarray, np.ndarray] | None = None
+    best: tuple[float, list[float]] | None = None
     for start in starts:
-        p = np.array([start[0], start[1], 0.0])
-        cost = _cost(p, bx, by, bz, z, w)
+        p = [start[0], start[1], 0.0]
+        cost = _cost(p, rows)
         for _ in range(max_iterations):
-            dx, dy = p[0] - bx, p[1] - by
-            d = np.maximum(np.sqrt(dx * dx + dy * dy + bz * bz), 1e-6)
-            J = np.column_stack([dx / d, dy / d, np.ones_like(d)])
-            if not estimate_offset:
-                J = J[:, :2]
-            r = z - (d + p[2])
-            Jw = J * w[:, None]
-            try:  # the normal equations: 2×2 (3×3), far cheaper than an SVD least squares
-                step = np.linalg.solve(Jw.T @ Jw, Jw.T @ (r * w))
-            except np.linalg.LinAlgError:
+            normal, rhs = _normal_equations(p, rows, k)
+            step = _solve_small(normal, rhs)
+            if step is None:
                 break
-            if not estimate_offset:
-                step = np.append(step, 0.0)
+            if k == 2:
+                step.append(0.0)
             scale = 1.0
             while scale > 1e-3:
-                trial = p + scale * step
-                trial_cost = _cost(trial, bx, by, bz, z, w)
+                trial = [p[i] + scale * step[i] for i in range(3)]
+                trial_cost = _cost(trial, rows)
                 if trial_cost <= cost:
                     break
                 scale *= 0.5
             else:
                 break
             p, cost = trial, trial_cost
-            if np.linalg.norm(scale * step) < tolerance:
+            if scale * math.sqrt(sum(v * v for v in step)) < tolerance:
                 break
-        same = best is not None and np.hypot(*(p[:2] - best[1][:2])) < 0.1
+        same = best is not None and math.hypot(p[0] - best[1][0], p[1] - best[1][1]) < 0.1
         if best is None or cost < best[0]:
-            best = (cost, p, J)
+            best = (cost, p)
         if best[0] <= good_enough or same:
             break  # a good fit, or the same minimum found from two starts
     if best is None:
         return None
-    cost, p, _ = best
-    dx, dy = p[0] - bx, p[1] - by
-    d = np.maximum(np.sqrt(dx * dx + dy * dy + bz * bz), 1e-6)
-    J = np.column_stack([dx / d, dy / d, np.ones_like(d)])[:, : 3 if estimate_offset else 2]
-    normal = (J * w[:, None] ** 2).T @ J
-    eig = np.linalg.eigvalsh(normal)  # ascending: a near-zero first one is a degenerate net
-    if not eig[0] > 1e-8 * eig[-1]:
+    cost, p = best
+    normal, _ = _normal_equations(p, rows, k)
+    cov = _inverse_small(normal)
+    if cov is None:
+        return None  # a degenerate net: the position is not determined
+    half_sum, half_diff = (cov[0][0] + cov[1][1]) / 2, (cov[0][0] - cov[1][1]) / 2
+    sigma = math.sqrt(max(half_sum + math.hypot(half_diff, cov[0][1]), 0.0))
+    residuals = [(z - _distance(p, bx, by, bz2) - p[2], w) for bx, by, bz2, z, w in rows]
+    return Fix(t=max(r.t for r in ranges), x=p[0], y=p[1], sigma=sigma,
+               rms=math.sqrt(sum(r * r for r, _ in residuals) / len(residuals)),
+               n=len(ranges), beacons=tuple(names), offset=p[2],
+               chi2=sum((w * r) ** 2 for r, w in residuals), dof=len(ranges) - k)
+
+
+def _distance(p: list[float], bx: float, by: float, bz2: float) -> float:
+    return max(math.sqrt((p[0] - bx) ** 2 + (p[1] - by) ** 2 + bz2), 1e-6)
+
+
+def _cost(p: list[float], rows: list[tuple[float, float, float, float, float]]) -> float:
+    return sum((w * (z - _distance(p, bx, by, bz2) - p[2])) ** 2
+               for bx, by, bz2, z, w in rows)
+
+
+def _normal_equations(p: list[float], rows: list[tuple[float, float, float, float, float]],
+                      k: int) -> tuple[list[list[float]], list[float]]:
+    """JᵀWJ and JᵀWr of the weighted range equations at ``p`` (k unknowns: x, y[, offset])."""
+    normal = [[0.0] * k for _ in range(k)]
+    rhs = [0.0] * k
+    for bx, by, bz2, z, w in rows:
+        d = _distance(p, bx, by, bz2)
+        jac = ((p[0] - bx) / d, (p[1] - by) / d, 1.0)[:k]
+        w2 = w * w
+        r = z - d - p[2]
+        for i in range(k):
+            rhs[i] += w2 * jac[i] * r
+            for j in range(k):
+                normal[i][j] += w2 * jac[i] * jac[j]
+    return normal, rhs
+
+
+def _solve_small(a: list[list[float]], b: list[float]) -> list[float] | None:
+    """x with a x = b for a 2×2 or 3×3 symmetric positive system; None if singular."""
+    inv = _inverse_small(a)
+    if inv is None:
         return None
-    cov = np.linalg.inv(normal)
-    c = cov[:2, :2]
-    half_sum, half_diff = (c[0, 0] + c[1, 1]) / 2, (c[0, 0] - c[1, 1]) / 2
-    sigma = math.sqrt(max(half_sum + math.hypot(half_diff, c[0, 1]), 0.0))
-    residual = z - (d + p[2])
-    return Fix(t=max(r.t for r in ranges), x=float(p[0]), y=float(p[1]), sigma=sigma,
-               rms=float(np.sqrt(np.mean(residual**2))), n=len(ranges), beacons=tuple(names),
-               offset=float(p[2]), chi2=float(np.sum((w * residual) ** 2)),
-               dof=len(ranges) - (3 if estimate_offset else 2))
+    return [sum(inv[i][j] * b[j] for j in range(len(b))) for i in range(len(b))]
 
 
-def _cost(p: np.ndarray, bx: np.ndarray, by: np.ndarray, bz: np.ndarray, z: np.ndarray,
-          w: np.ndarray) -> float:
-    d = np.sqrt((p[0] - bx) ** 2 + (p[1] - by) ** 2 + bz**2)
-    return float(np.sum((w * (z - d - p[2])) ** 2))
+def _inverse_small(a: list[list[float]]) -> list[list[float]] | None:
+    """The inverse of a 2×2 or 3×3 matrix by cofactors; None when it is (nearly) singular
+    (a determinant below 1e-12 of the product of its diagonal: a net too degenerate)."""
+    if len(a) == 2:
+        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+        if not abs(det) > 1e-12 * abs(a[0][0] * a[1][1]) or det == 0.0:
+            return None
+        return [[a[1][1] / det, -a[0][1] / det], [-a[1][0] / det, a[0][0] / det]]
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    c00, c01, c02 = a11 * a22 - a12 * a21, a12 * a20 - a10 * a22, a10 * a21 - a11 * a20
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    if not abs(det) > 1e-12 * abs(a00 * a11 * a22) or det == 0.0:
+        return None
+    return [[c00 / det, (a02 * a21 - a01 * a22) / det, (a01 * a12 - a02 * a11) / det],
+            [c01 / det, (a00 * a22 - a02 * a20) / det, (a02 * a10 - a00 * a12) / det],
+            [c02 / det, (a01 * a20 - a00 * a21) / det, (a00 * a11 - a01 * a10) / det]]
 
 
 class LSQ:
