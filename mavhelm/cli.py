@@ -142,10 +142,14 @@ def _demo(args: argparse.Namespace) -> int:
     from mavhelm.demo import DEFAULT_MISSION, run_demo
     from mavhelm.sitl.faults import Scenario
 
+    if args.model and args.variant:
+        print("mavhelm demo: --model replaces --vehicle/--variant; give one or the other",
+              file=sys.stderr)
+        return 2
     scenario = Scenario.from_file(args.scenario) if args.scenario else None
     result = run_demo(args.mission or DEFAULT_MISSION, args.out, vehicle=args.vehicle,
-                      variant=args.variant, fast_start=args.fast_start, scenario=scenario,
-                      seed=args.seed)
+                      variant=args.variant, model=args.model, defaults=args.defaults,
+                      fast_start=args.fast_start, scenario=scenario, seed=args.seed)
     return 0 if result.ended else 1
 
 
@@ -234,6 +238,13 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="runs", help="output folder (default runs/)")
     demo.add_argument("--vehicle", default="boat", choices=["boat", "rover"])
     demo.add_argument("--variant", default=None, help="boat: skid|rudder; rover: ackermann|skid")
+    from mavhelm.sitl.models import ALL_MODEL_NAMES
+
+    demo.add_argument("--model", default=None, choices=ALL_MODEL_NAMES, metavar="NAME",
+                      help="ArduPilot SITL vehicle model (motorboat, motorboat-skid, rover, "
+                           "rover-skid); replaces --vehicle/--variant")
+    demo.add_argument("--defaults", default=None, metavar="FILE[,FILE...]",
+                      help="ArduPilot .parm files applied over the parameter table")
     demo.add_argument("--fast-start", action="store_true",
                       help="compress the autopilot's start-up timeline")
     demo.add_argument("--scenario", help="fault scenario file (.scn)")

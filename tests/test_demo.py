@@ -40,3 +40,17 @@ def test_demo_of_a_malformed_mission_starts_nothing(tmp_path, capsys):
     assert main(["demo", str(bad), "--out", str(tmp_path / "runs")]) == 2
     assert f"{bad}:1:" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
+
+
+def test_the_demo_runs_on_an_ardupilot_sitl_model():
+    """``model=`` puts the companion on ArduPilot's SITL motorboat (steering + throttle):
+    handed over in GUIDED, the helm drives it away under way."""
+    from mavhelm.demo.harness import SimulatedRun
+
+    with SimulatedRun.start(DEMO, model="motorboat") as run:
+        assert run.sim.model.name == "motorboat"
+        assert (run.sim.params["SERVO1_FUNCTION"], run.sim.params["SERVO3_FUNCTION"]) == (26, 70)
+        run.hand_over()
+        run.run_for(30.0)
+        assert run.sim.mode == "GUIDED" and run.sim.truth.surge > 1.0
+        assert max(abs(run.sim.truth.x), abs(run.sim.truth.y)) > 20.0

@@ -10,6 +10,8 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
+from mavhelm.sitl.modes import GuidedSubMode
+
 M = mavlink
 
 # rig: fixture in conftest.py
@@ -95,7 +97,7 @@ def test_position_target_reached_boat_loiters(rig):
     assert rig.until(lambda: c.of("MISSION_ITEM_REACHED"), 60.0, 0.1)
     assert not c.acks(M.MAV_CMD_DO_SET_SERVO)
     assert math.hypot(rig.sim.truth.x, rig.sim.truth.y - 30.0) < 4.0
-    assert rig.sim.autopilot.guided_sub == "loiter"
+    assert rig.sim.autopilot.guided.sub == GuidedSubMode.LOITER
     rig.run(20.0, 0.1)  # no target timeout for a position target, and it stays close
     assert not any("target not received" in t for t in c.texts())
     assert math.hypot(rig.sim.truth.x, rig.sim.truth.y - 30.0) < 5.0
@@ -112,7 +114,7 @@ def test_position_target_local_ned_rover_stops():
         r.run(5.0, 0.1)
         assert abs(r.sim.truth.surge) < 0.1
         assert math.hypot(r.sim.truth.x - 10.0, r.sim.truth.y - 20.0) < 4.0
-        assert r.sim.autopilot.guided_sub == "stop"
+        assert r.sim.autopilot.guided.sub == GuidedSubMode.STOP
     finally:
         r.close()
 

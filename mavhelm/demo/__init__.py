@@ -36,7 +36,8 @@ def overall_timeout(mission) -> float:
 
 
 def run_demo(mission_path: str | Path = DEFAULT_MISSION, out_root: str | Path = "runs", *,
-             vehicle: str = "boat", variant: str | None = None, fast_start: bool = False,
+             vehicle: str = "boat", variant: str | None = None, model: str | None = None,
+             defaults: str | None = None, fast_start: bool = False,
              scenario=None, seed: int = 0, echo=print) -> DemoResult:
     mission = load_mission(mission_path)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -46,8 +47,9 @@ def run_demo(mission_path: str | Path = DEFAULT_MISSION, out_root: str | Path = 
         out_dir = Path(out_root) / f"{stamp}-{suffix}"
         suffix += 1
     out_dir.mkdir(parents=True)
-    echo(f"mission {mission_path}; simulated {vehicle}; logs in {out_dir}")
-    with SimulatedRun.start(mission, vehicle=vehicle, variant=variant, fast_start=fast_start,
+    echo(f"mission {mission_path}; simulated {model or vehicle}; logs in {out_dir}")
+    with SimulatedRun.start(mission, vehicle=vehicle, variant=variant, model=model,
+                            defaults=defaults, fast_start=fast_start,
                             scenario=scenario, seed=seed,
                             alog_path=out_dir / "mission.alog") as run:
         handed = run.hand_over()

@@ -151,7 +151,8 @@ class SimEnvironment:
     or a PARAM_SET reaches it unchanged. Defaults are ArduPilot's (read back from the 4.8-dev
     SITL); ``motorboat.parm`` sets SIM_WIND_SPD 3, SIM_WIND_T 1 and SIM_WAVE_ENABLE 1.
 
-    SIM_DEPTH is mavhelm's own (the echo sounder's seabed). ``armed``: the SITL moves the hull
+    SIM_DEPTH is mavhelm's own (the echo sounder's seabed), and so is SIM_CURRENT_SPD/DIR, the
+    water current of mavhelm's own hulls (models.LEGACY_MODELS). ``armed``: the SITL moves the hull
     with the tide and rocks it on the waves only while the vehicle is armed."""
 
     SIM_WIND_SPD: float = 0.0  # m/s
@@ -165,6 +166,8 @@ class SimEnvironment:
     SIM_TIDE_DIR: float = 0.0  # degrees the tidal stream comes from
     SIM_TIDE_SPEED: float = 0.0  # m/s
     SIM_DEPTH: float = 20.0  # m of water under the hull (mavhelm)
+    SIM_CURRENT_SPD: float = 0.0  # m/s of water current (mavhelm's own hulls only)
+    SIM_CURRENT_DIR: float = 0.0  # degrees the current flows *to* (mavhelm's own hulls only)
     armed: bool = True
 
     @classmethod

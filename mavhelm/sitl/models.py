@@ -11,9 +11,10 @@ benchmarks/bench_step_response.py compares them; tests/test_sitl_models.py pins 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from functools import lru_cache
+from typing import Any, NamedTuple
 
 from mavhelm.sitl import boat, rover
 from mavhelm.sitl.boat import SimEnvironment
@@ -27,6 +28,24 @@ FN_THROTTLE_RIGHT = 74
 
 MAV_TYPE_GROUND_ROVER = 10
 MAV_TYPE_SURFACE_BOAT = 11
+
+# A motor output as the autopilot describes it: (channel, function, min, max, trim, reversed)
+ServoMap = Sequence[tuple[int, int, float, float, float, bool]]
+
+
+class Motion(NamedTuple):
+    """What the autopilot's sensors and EKF need of the vehicle each step, whatever it is:
+    heading (rad clockwise from north), yaw rate (rad/s), speed through the water or over the
+    ground along and across the hull (sway None: on wheels, it cannot slip; the EKF then dead
+    reckons along the heading and the wheel encoders count), earth velocity east/north (m/s)."""
+
+    heading: float
+    yaw_rate: float
+    surge: float
+    sway: float | None
+    vx: float
+    vy: float
+
 
 def servo_to_unit(pwm: float) -> float:
     """A servo PWM as SITL's physics reads it: (PWM − 1500) / 500, clipped to [-1, 1]."""
@@ -52,6 +71,9 @@ class VehicleModel:
     _new_state: Callable[[float], Any]
     _step: Callable[..., Any]
     _truth: Callable[..., Truth]
+    _motion: Callable[..., Motion]
+    # None: SITL's way, outputs 1 and 3 by position; else (outputs, servo map) → inputs
+    _inputs: Callable[[Sequence[int], ServoMap], tuple[float, float]] | None = None
 
     @property
     def skid(self) -> bool:
@@ -66,6 +88,15 @@ class VehicleModel:
         right), each in [-1, 1]."""
         return (servo_to_unit(servo1_pwm), servo_to_unit(servo3_pwm))
 
+    def inputs_from_outputs(self, outputs: Sequence[int],
+                            servo_map: ServoMap) -> tuple[float, float]:
+        """The model's inputs from the 16 servo outputs: the SITL models read outputs 1 and 3
+        by position (``inputs_from_servos``); mavhelm's own hulls go through the motor outputs'
+        functions and ranges (``servo_map``, the autopilot's SERVOn_* table)."""
+        if self._inputs is None:
+            return self.inputs_from_servos(outputs[0], outputs[2])
+        return self._inputs(outputs, servo_map)
+
     def step(self, state: Any, inputs: tuple[float, float], env: SimEnvironment,
              dt: float) -> Any:
         """The state dt seconds later under these inputs."""
@@ -74,6 +105,10 @@ class VehicleModel:
     def truth(self, state: Any, t: float, env: SimEnvironment) -> Truth:
         """What the sensors of this vehicle observe in this state."""
         return self._truth(state, t, env, self.params)
+
+    def motion(self, state: Any, env: SimEnvironment) -> Motion:
+        """The state's heading, rates and velocities for the autopilot's estimator."""
+        return self._motion(state, env, self.params)
 
 
 def _rover_step(state: rover.RoverState, inputs: tuple[float, float], env: SimEnvironment,
@@ -84,6 +119,17 @@ def _rover_step(state: rover.RoverState, inputs: tuple[float, float], env: SimEn
 def _rover_truth(state: rover.RoverState, t: float, env: SimEnvironment,
                  p: rover.RoverParams) -> Truth:
     return rover.truth(state, t, _LAND, p)
+
+
+def _rover_motion(state: rover.RoverState, env: SimEnvironment, p: rover.RoverParams) -> Motion:
+    s, c = math.sin(state.heading), math.cos(state.heading)
+    return Motion(state.heading, state.r, state.speed, None, state.speed * s, state.speed * c)
+
+
+def _sitl_boat_motion(state: boat.BoatState, env: SimEnvironment,
+                      p: boat.SitlBoatParams) -> Motion:
+    tr = boat.sitl_truth(state, 0.0, env, p)
+    return Motion(state.heading, state.r, state.u, 0.0, tr.vx, tr.vy)
 
 
 _LAND = boat.Environment(water_depth=0.0)
@@ -103,20 +149,22 @@ MODELS: dict[str, VehicleModel] = {
     "motorboat": VehicleModel(
         "motorboat", "boat", MAV_TYPE_SURFACE_BOAT, boat.SitlBoatParams(skid=False),
         ("rover.parm", "motorboat.parm"), (FN_STEERING, FN_THROTTLE),
-        lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth),
+        lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth,
+        _sitl_boat_motion),
     "motorboat-skid": VehicleModel(
         "motorboat-skid", "boat", MAV_TYPE_SURFACE_BOAT, boat.SitlBoatParams(skid=True),
         ("rover.parm", "motorboat.parm", "rover-skid.parm"),
         (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT),
-        lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth),
+        lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth,
+        _sitl_boat_motion),
     "rover": VehicleModel(
         "rover", "rover", MAV_TYPE_GROUND_ROVER, SITL_ROVER, ("rover.parm",),
         (FN_STEERING, FN_THROTTLE), lambda h: rover.RoverState(heading=h),
-        _rover_step, _rover_truth),
+        _rover_step, _rover_truth, _rover_motion),
     "rover-skid": VehicleModel(
         "rover-skid", "rover", MAV_TYPE_GROUND_ROVER, SITL_ROVER_SKID,
         ("rover.parm", "rover-skid.parm"), (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT),
-        lambda h: rover.RoverState(heading=h), _rover_step, _rover_truth),
+        lambda h: rover.RoverState(heading=h), _rover_step, _rover_truth, _rover_motion),
 }
 
 
@@ -127,3 +175,122 @@ def get_model(name: str) -> VehicleModel:
     except KeyError:
         raise ValueError(f"unknown vehicle model {name!r}; known: "
                          f"{', '.join(sorted(MODELS))}") from None
+
+
+# ---------------------------------------------------------------------------------------------
+# mavhelm's own hulls, older than the registry: a BlueBoat-like 3-DOF boat (twin thrusters or
+# rudder) and a small rover (Ackermann or skid). They are slower and more boat-like than the
+# SITL toys above, and every existing test, the demo and ``--vehicle/--variant`` still use them,
+# so they stay behind the same interface. Unlike the SITL models they read their outputs through
+# SERVOn_FUNCTION/MIN/MAX/TRIM/REVERSED, and move with mavhelm's SIM_CURRENT_SPD/DIR current
+# and a leeway of 3 % of the wind (no tide, no waves).
+# ---------------------------------------------------------------------------------------------
+
+
+@lru_cache(maxsize=64)
+def legacy_environment(env: SimEnvironment) -> boat.Environment:
+    """mavhelm's environment for its own hulls, from the same parameter table."""
+    cs, cd = env.SIM_CURRENT_SPD, math.radians(env.SIM_CURRENT_DIR)
+    return boat.Environment(current_east=cs * math.sin(cd), current_north=cs * math.cos(cd),
+                            wind_speed=env.SIM_WIND_SPD, wind_from=env.SIM_WIND_DIR,
+                            water_depth=env.SIM_DEPTH)
+
+
+def _by_function(skid: bool) -> Callable[[Sequence[int], ServoMap], tuple[float, float]]:
+    """Servo PWM → actuator commands through SERVOn_FUNCTION and each output's range, so a
+    steering/throttle autopilot can drive a twin-thruster hull and the other way round."""
+
+    def inputs(outputs: Sequence[int], servo_map: ServoMap) -> tuple[float, float]:
+        vals: dict[int, float] = {}
+        for ch, fn, lo, hi, trim, rev in servo_map:
+            pwm = outputs[ch - 1]
+            v = (pwm - trim) / max((hi - trim) if pwm >= trim else (trim - lo), 1)
+            vals[fn] = -v if rev else v
+        if FN_THROTTLE_LEFT in vals or FN_THROTTLE_RIGHT in vals:
+            left = vals.get(FN_THROTTLE_LEFT, 0.0)
+            right = vals.get(FN_THROTTLE_RIGHT, 0.0)
+            steer, thr = 0.5 * (left - right), 0.5 * (left + right)
+        else:
+            steer = vals.get(FN_STEERING, 0.0)
+            thr = vals.get(FN_THROTTLE, 0.0)
+            left, right = thr + steer, thr - steer
+        return (left, right) if skid else (steer, thr)
+
+    return inputs
+
+
+def _legacy_boat_step(state: boat.BoatState, inputs: tuple[float, float], env: SimEnvironment,
+                      dt: float, p: boat.BoatParams) -> boat.BoatState:
+    return boat.step(state, inputs, legacy_environment(env), dt, p)
+
+
+def _legacy_boat_truth(state: boat.BoatState, t: float, env: SimEnvironment,
+                       p: boat.BoatParams) -> Truth:
+    return boat.truth(state, t, legacy_environment(env), p)
+
+
+def _legacy_boat_motion(state: boat.BoatState, env: SimEnvironment, p: boat.BoatParams) -> Motion:
+    s, c = math.sin(state.heading), math.cos(state.heading)
+    ce, cn = legacy_environment(env).drift(p.leeway)
+    return Motion(state.heading, state.r, state.u, state.v,
+                  state.u * s + state.v * c + ce, state.u * c - state.v * s + cn)
+
+
+def _legacy_rover_step(state: rover.RoverState, inputs: tuple[float, float],
+                       env: SimEnvironment, dt: float, p: rover.RoverParams) -> rover.RoverState:
+    return rover.step(state, inputs, legacy_environment(env), dt, p)
+
+
+def _legacy_rover_truth(state: rover.RoverState, t: float, env: SimEnvironment,
+                        p: rover.RoverParams) -> Truth:
+    return rover.truth(state, t, legacy_environment(env), p)
+
+
+def _legacy(name: str, vehicle: str, variant: str) -> VehicleModel:
+    skid = variant == "skid"
+    functions = (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT) if skid else (FN_STEERING, FN_THROTTLE)
+    if vehicle == "boat":
+        return VehicleModel(name, vehicle, MAV_TYPE_SURFACE_BOAT, boat.BoatParams(variant=variant),
+                            (), functions, lambda h: boat.BoatState(heading=h),
+                            _legacy_boat_step, _legacy_boat_truth, _legacy_boat_motion,
+                            _by_function(skid))
+    return VehicleModel(name, vehicle, MAV_TYPE_GROUND_ROVER, rover.RoverParams(variant=variant),
+                        (), functions, lambda h: rover.RoverState(heading=h),
+                        _legacy_rover_step, _legacy_rover_truth, _rover_motion,
+                        _by_function(skid))
+
+
+# (vehicle, variant) of ``--vehicle/--variant`` → mavhelm's own hull; the first variant of each
+# vehicle is its default
+LEGACY_MODELS: dict[tuple[str, str], VehicleModel] = {
+    ("boat", "skid"): _legacy("mavhelm-boat", "boat", "skid"),
+    ("boat", "rudder"): _legacy("mavhelm-boat-rudder", "boat", "rudder"),
+    ("rover", "ackermann"): _legacy("mavhelm-rover", "rover", "ackermann"),
+    ("rover", "skid"): _legacy("mavhelm-rover-skid", "rover", "skid"),
+}
+ALL_MODEL_NAMES: tuple[str, ...] = tuple(MODELS) + tuple(m.name for m in LEGACY_MODELS.values())
+
+
+def legacy_model(vehicle: str, variant: str | None = None) -> VehicleModel:
+    """mavhelm's own hull for ``--vehicle``/``--variant`` (variant None: the vehicle's default:
+    boat skid, rover ackermann); ValueError naming what is allowed otherwise."""
+    variants = [v for veh, v in LEGACY_MODELS if veh == vehicle]
+    if not variants:
+        raise ValueError(f"vehicle must be boat or rover, not {vehicle!r}")
+    chosen = variant or variants[0]
+    if chosen not in variants:
+        raise ValueError(f"{vehicle} variant must be one of {tuple(variants)}, not {chosen!r}")
+    return LEGACY_MODELS[(vehicle, chosen)]
+
+
+def find_model(name: str) -> VehicleModel:
+    """A model by name: ArduPilot's SITL names, or mavhelm's own hulls (``mavhelm-boat``,
+    ``mavhelm-boat-rudder``, ``mavhelm-rover``, ``mavhelm-rover-skid``)."""
+    for model in LEGACY_MODELS.values():
+        if model.name == name:
+            return model
+    try:
+        return get_model(name)
+    except ValueError:
+        raise ValueError(f"unknown vehicle model {name!r}; known: "
+                         f"{', '.join(ALL_MODEL_NAMES)}") from None

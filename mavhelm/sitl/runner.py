@@ -15,6 +15,7 @@ import time
 from typing import Any
 
 from mavhelm.sitl.flat_earth import Origin
+from mavhelm.sitl.models import ALL_MODEL_NAMES
 
 TICK = 0.01  # wall seconds between simulator steps
 DEFAULT_HOME = (56.0, -3.0, 0.0)
@@ -98,7 +99,16 @@ def parse_beacons(text: str) -> list[Any]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``mavhelm sim`` options."""
-    parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat")
+    parser.add_argument("--model", default=None, choices=ALL_MODEL_NAMES, metavar="NAME",
+                        help="vehicle model by ArduPilot SITL's name: motorboat (steering + "
+                             "throttle), motorboat-skid (twin thrusters), rover, rover-skid; "
+                             "or mavhelm's own hulls (mavhelm-boat, mavhelm-boat-rudder, "
+                             "mavhelm-rover, mavhelm-rover-skid); replaces --vehicle/--variant")
+    parser.add_argument("--defaults", default=None, metavar="FILE[,FILE...]",
+                        help="ArduPilot .parm files applied over the parameter table, in "
+                             "order, as the SITL's --defaults (e.g. rover.parm,motorboat.parm)")
+    parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat",
+                        help="mavhelm's own hulls (without --model): boat (default) or rover")
     parser.add_argument("--variant", default=None,
                         help="boat: skid (default, twin thrusters) | rudder; "
                              "rover: ackermann (default) | skid")
@@ -196,6 +206,11 @@ def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C. Returns the process exit status."""
     from mavhelm.sitl.simulator import Simulator
 
+    model = getattr(args, "model", None)
+    if model is not None and args.variant is not None:
+        print("mavhelm sim: --model replaces --vehicle/--variant; give one or the other",
+              file=sys.stderr)
+        return 2
     if args.variant is not None:
         allowed = ("skid", "rudder") if args.vehicle == "boat" else ("ackermann", "skid")
         if args.variant not in allowed:
@@ -222,6 +237,22 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"mavhelm sim: {exc}", file=sys.stderr)
         return 2
+    defaults = None
+    if getattr(args, "defaults", None):
+        from mavhelm.sitl.parm_file import ParmFileError, read_defaults
+
+        try:
+            defaults = read_defaults(args.defaults, strict=False)
+        except ParmFileError as exc:
+            print(f"mavhelm sim: --defaults: {exc}", file=sys.stderr)
+            return 2
+        for skipped in defaults.skipped:
+            print(f"mavhelm sim: {skipped} (skipped, as ArduPilot does)", file=sys.stderr)
+    vehicle = args.vehicle
+    if model is not None:
+        from mavhelm.sitl.models import find_model
+
+        vehicle = find_model(model).vehicle
     sensors = getattr(args, "sensors", False)
     beacons = getattr(args, "beacons", None)
     if beacons and not sensors:
@@ -252,18 +283,21 @@ def run(args: argparse.Namespace) -> int:
         # the serial noise comes from the scenario's streams; --seed seeds them without one
         sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
         try:
-            ports = make_sensor_ports(args.vehicle, home, sensor_scenario, beacons,
+            ports = make_sensor_ports(vehicle, home, sensor_scenario, beacons,
                                       getattr(args, "ranging", "acoustic"), epoch)
         except OSError as exc:
             print(f"mavhelm sim: cannot open a pseudo-terminal: {exc}", file=sys.stderr)
             return 1
     try:
         try:
-            sim = Simulator(clock, vehicle=args.vehicle, variant=args.variant, ports=args.port,
-                            host=args.host, udp_out=args.out, home=home,
+            chosen: dict[str, Any] = ({"model": model} if model is not None else
+                                      {"vehicle": args.vehicle, "variant": args.variant})
+            sim = Simulator(clock, **chosen, ports=args.port, host=args.host,
+                            udp_out=args.out, home=home,
                             start_heading=heading, fast_start=args.fast_start,
                             scenario=scenario, params=params, seed=seed or 0, epoch=epoch,
-                            serial_sensors=ports)
+                            serial_sensors=ports,
+                            defaults=defaults)
         except OSError as exc:
             busy = [p for p in args.port if p and not _port_free(args.host, p)]
             if busy:
@@ -276,7 +310,8 @@ def run(args: argparse.Namespace) -> int:
             return 1
         where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
         outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
-        print(f"mavhelm sim: {args.vehicle} ({sim.variant}) at {lat:.6f},{lon:.6f} "
+        what = sim.model.name if model is not None else f"{vehicle} ({sim.variant})"
+        print(f"mavhelm sim: {what} at {lat:.6f},{lon:.6f} "
               f"listening on {where}" + (f", sending to {outs}" if outs else ""), flush=True)
         for port in ports:
             print(f"mavhelm sim: {describe_port(port)}", flush=True)

@@ -1,0 +1,99 @@
+"""The outputs (libraries/AR_Motors/AP_MotorsUGV.cpp, SRV_Channel, ServoRelayEvents.cpp):
+steering and throttle demands mixed for a skid vehicle and written as PWM on the outputs whose
+SERVOn_FUNCTION asks for them; DO_SET_SERVO on the outputs no function holds.
+
+Apart from the autopilot because it is what the physics reads: the vehicle moves only by the
+PWM written here, as SITL's frames move only by the servo outputs."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+
+from mavhelm.sitl.attitude_control import clamp
+from mavhelm.sitl.mavlink_defs import (
+    FN_NONE,
+    FN_STEERING,
+    FN_THROTTLE,
+    FN_THROTTLE_LEFT,
+    FN_THROTTLE_RIGHT,
+    MOTOR_FUNCTIONS,
+    RESULT_ACCEPTED,
+    RESULT_FAILED,
+    SEVERITY_INFO,
+)
+
+ServoMapRow = tuple[int, int, float, float, float, bool]
+
+
+class MotorsUGV:
+    """AP_MotorsUGV for the four motor functions (steering 26, throttle 70, left 73, right 74)
+    and the free outputs DO_SET_SERVO may drive."""
+
+    def __init__(self, params: Mapping[str, float], skid: bool,
+                 text: Callable[[int, str], None]) -> None:
+        self.params = params
+        self.skid = skid
+        self.text = text  # a STATUSTEXT for every link
+        self.servo_override: dict[int, int] = {}  # DO_SET_SERVO outputs (1-based)
+        self._servo_map: list[ServoMapRow] | None = None
+
+    def do_set_servo(self, channel: int, pwm: int) -> int:
+        """MAV_CMD_DO_SET_SERVO: refused on outputs that already have a function."""
+        if not 1 <= channel <= 16:
+            return RESULT_FAILED
+        fn = int(self.params.get(f"SERVO{channel}_FUNCTION", 0))
+        if fn not in (FN_NONE, 1) and not 51 <= fn <= 66:  # none, RCPassThru, RCINn
+            self.text(SEVERITY_INFO, f"ServoRelayEvent: Channel {channel} is already in use")
+            return RESULT_FAILED
+        self.servo_override[channel] = int(pwm)
+        return RESULT_ACCEPTED
+
+    def mix(self, steering: float, throttle: float,
+            armed: bool) -> tuple[float, float, float, float]:
+        """(steering, throttle, left, right) after skid-steer mixing; zero when disarmed."""
+        if not armed:
+            return 0.0, 0.0, 0.0, 0.0
+        steer, thr = steering, throttle
+        # skid steering saturation (AP_MotorsUGV): MOT_STR_THR_MIX 0.5 scales both fairly,
+        # 1.0 gives steering priority; throttle takes what steering leaves
+        sat = abs(steer) + abs(thr)
+        if self.skid and sat > 1.0:
+            mix = clamp(self.params.get("MOT_STR_THR_MIX", 0.5), 0.0, 1.0)
+            if mix >= 0.5:
+                steer *= 1.0 / sat + (1.0 - 1.0 / sat) * (mix - 0.5) / 0.5
+                thr = math.copysign(max(0.0, 1.0 - abs(steer)), thr)
+            else:
+                thr *= 1.0 / sat + (1.0 - 1.0 / sat) * (0.5 - mix) / 0.5
+                steer = math.copysign(max(0.0, 1.0 - abs(thr)), steer)
+        return steer, thr, clamp(thr + steer, -1, 1), clamp(thr - steer, -1, 1)
+
+    def servo_map(self) -> list[ServoMapRow]:
+        """(channel, function, min, max, trim, reversed) of the motor outputs; cached until
+        a SERVOn_ parameter changes (call invalidate())."""
+        if self._servo_map is None:
+            p = self.params
+            self._servo_map = [
+                (ch, int(p.get(f"SERVO{ch}_FUNCTION", 0)), p.get(f"SERVO{ch}_MIN", 1100),
+                 p.get(f"SERVO{ch}_MAX", 1900), p.get(f"SERVO{ch}_TRIM", 1500),
+                 bool(p.get(f"SERVO{ch}_REVERSED", 0)))
+                for ch in range(1, 17)
+                if int(p.get(f"SERVO{ch}_FUNCTION", 0)) in MOTOR_FUNCTIONS]
+        return self._servo_map
+
+    def invalidate(self) -> None:
+        """Parameters changed: drop the cached servo map."""
+        self._servo_map = None
+
+    def outputs(self, steering: float, throttle: float, armed: bool) -> list[int]:
+        """SERVO_OUTPUT_RAW values for outputs 1..16."""
+        steer, thr, left, right = self.mix(steering, throttle, armed)
+        value = {FN_STEERING: steer, FN_THROTTLE: thr, FN_THROTTLE_LEFT: left,
+                 FN_THROTTLE_RIGHT: right}
+        out = [0] * 16
+        for ch, pwm in self.servo_override.items():
+            out[ch - 1] = pwm
+        for ch, fn, lo, hi, trim, rev in self.servo_map():
+            v = -value[fn] if rev else value[fn]
+            out[ch - 1] = int(round(trim + v * (hi - trim if v >= 0 else trim - lo)))
+        return out
