@@ -186,6 +186,10 @@ class EKFConfig:
     - ``max_position_sigma`` (m): larger 1-σ of the position is a navigation failure.
     - ``mobile``: False for a static vehicle (spec 2.2.2): no rate states, the pose a random
       walk of the dynamics' strength.
+    - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
+      (a hull that moves along its bow, as ``FIXEDSIDESLIP`` declares): the spec's uncoupled
+      model otherwise keeps the old course through a turn, and the sideslip constraint then
+      takes the difference out of the speed instead of the course.
     - ``estimate_z``: add Z and Ż (``z_dynamics``, ``sigma_z`` its start 1-σ);
       ``estimate_tide``: add the tide (``sigma_tide``, ``tide_noise`` m/√s). Tide alone with
       a depth sensor is not observable: give ranges to beacons at known heights or a fixed
@@ -217,6 +221,7 @@ class EKFConfig:
     estimate_tide: bool = False
     sigma_tide: float = 1.0
     tide_noise: float = 1e-3
+    velocity_follows_heading: bool = False
 
     def __post_init__(self) -> None:
         for name in ("xy_dynamics", "yaw_dynamics", "z_dynamics"):
@@ -586,7 +591,19 @@ class EKF:
         self._last_dt = dt
         kf = self.kf
         F = self._eye + dt * self._coupling
-        kf.x = F @ kf.x
+        if self.config.velocity_follows_heading and self.config.mobile:
+            # the velocity turns with the hull: v ← R(Ḣ dt) v, linearised for P
+            x = kf.x[:, 0]
+            vx, vy, w = x[I_VX], x[I_VY], x[I_VH]
+            s, c = math.sin(w * dt), math.cos(w * dt)
+            F[I_VX, I_VX], F[I_VX, I_VY], F[I_VY, I_VX], F[I_VY, I_VY] = c, -s, s, c
+            F[I_VX, I_VH] = dt * (-vx * s - vy * c)
+            F[I_VY, I_VH] = dt * (vx * c - vy * s)
+            new = F @ kf.x
+            new[I_VX, 0], new[I_VY, 0] = vx * c - vy * s, vx * s + vy * c
+            kf.x = new
+        else:
+            kf.x = F @ kf.x
         kf.P = F @ kf.P @ F.T
         if dt > 0:
             pp, pv, _, vv = white_noise_block(dt)

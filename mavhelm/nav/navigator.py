@@ -86,7 +86,8 @@ NAV_SCHEMA = Schema(
            doc="an artificial tide observation every tick (pins Z = 0 to the surface)"),
      Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s"), None,
            attr="fixed_sideslip", doc="an artificial starboard-speed observation every tick: "
-           "the hull moves along its bow (0 @ 0.3 for a boat in little current)"),
+           "the hull moves along its bow (0 @ 0.3 for a boat in little current); the EKF "
+           "then also turns its velocity with the yaw rate"),
      Param("EKF_X", Number(-1e5, 1e5), None, "m", "EKF start X (with EKF_Y; else the LSQ or "
            "the first XY fix starts it)", attr="ekf_x"),
      Param("EKF_Y", Number(-1e5, 1e5), None, "m", "EKF start Y", attr="ekf_y"),
@@ -220,7 +221,8 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
         gate_probability=settings["ekf_gate"],
         max_speed=settings["ekf_max_speed"], max_position_sigma=settings["ekf_max_sigma_xy"],
         mobile=settings["ekf_mobile"], estimate_z=has_depth,
-        sigma_z=settings["ekf_sigma_z"], estimate_tide=settings["ekf_tide"])
+        sigma_z=settings["ekf_sigma_z"], estimate_tide=settings["ekf_tide"],
+        velocity_follows_heading=settings["fixed_sideslip"] is not None)
     start = None
     if settings["ekf_x"] is not None:
         heading = settings["ekf_heading"]
