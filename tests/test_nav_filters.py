@@ -187,3 +187,105 @@ def test_late_data_are_logged_late_without_lag_and_used_with_it() -> None:
         assert bool(late) is expect_late
         if not expect_late:
             assert rig.last("EKF_DEPTH").double == pytest.approx(4.0, abs=0.2)
+
+
+def test_a_tlog_replays_through_the_missions_pnav_with_its_truth(tmp_path) -> None:
+    """``mavhelm nav replay`` on a MAVLink .tlog: the frames go through the mission's bridge
+    (GPS_RAW_INT → GPS_X/Y, ATTITUDE → INS_YAW, SIMSTATE → TRUTH_X/Y) and the pNav block's
+    EKF is scored against the truth."""
+    import struct
+    import subprocess
+    import sys
+
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from mavhelm.core.geodesy import Origin
+
+    origin = Origin(56.4120, -5.4760)
+    mission = tmp_path / "m.moos"
+    mission.write_text("LatOrigin = 56.4120\nLongOrigin = -5.4760\nProcessConfig = pNav\n{\n"
+                       + GPS_COMPASS + "}\n")
+    ap = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    rng = np.random.default_rng(5)
+    data = bytearray()
+    t0 = 1_767_225_600.0
+    for k in range(1200):  # 120 s: ATTITUDE and SIMSTATE at 10 Hz, GPS at 1 Hz
+        t = k * 0.1
+        x, y, yaw = circle(t)
+        frames = [mavlink.MAVLink_attitude_message(int(t * 1000), 0.0, 0.0, -yaw, 0.0, 0.0, 0.0)]
+        lat, lon = origin.to_global(x, y)
+        frames.append(mavlink.MAVLink_simstate_message(0, 0, -yaw, 0, 0, 0, 0, 0, 0,
+                                                       int(lat * 1e7), int(lon * 1e7)))
+        if k % 10 == 0:
+            glat, glon = origin.to_global(x + rng.normal(0, 2.0), y + rng.normal(0, 2.0))
+            frames.append(mavlink.MAVLink_gps_raw_int_message(
+                int(t * 1e6), 3, int(glat * 1e7), int(glon * 1e7), 0, 100, 100, 200, 0, 10))
+        for frame in frames:
+            data += struct.pack(">Q", round((t0 + t) * 1e6)) + frame.pack(ap)
+    log = tmp_path / "run.tlog"
+    log.write_bytes(bytes(data))
+    done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(mission),
+                           str(log)], capture_output=True, text=True, check=False)
+    print("\n" + done.stdout)
+    assert done.returncode == 0, done.stdout + done.stderr
+    lines = {ln.split()[0]: ln for ln in done.stdout.splitlines() if "position:" in ln}
+    gps_rms = float(lines["GPS"].split("RMS ")[1].split(" m")[0])
+    nav_rms = float(lines["NAV"].split("RMS ")[1].split(" m")[0])
+    assert 2.0 < gps_rms < 4.0 and nav_rms < 0.8 * gps_rms
+    assert (tmp_path / "run_replay.olog").read_text().count(" gps XY ") >= 100
+
+
+def test_lsq_rejection_drops_a_channels_outlier_before_the_filters_see_it() -> None:
+    from mavhelm.nav.sensor_channel import SensorChannel
+
+    channel = SensorChannel(points=8, tolerance=2.0)
+    ranges = [100.0 + 1.5 * k for k in range(8)]  # a beacon being approached steadily
+    assert all(channel.test(float(k), r) for k, r in enumerate(ranges))
+    assert not channel.test(8.0, 112.0 + 30.0)  # multipath: 30 m long
+    assert channel.test(9.0, 113.5)  # back on the line
+    assert channel.rejected == 1
+    rig = Rig(GPS_COMPASS + "  SENSOR_RANGE = RNG -> uwb ~ 0.5\n  BEACON = 1 @ 0,0,0\n"
+                            "  LSQ_REJECTION = uwb @ 6, 2.0\n  LSQ = false\n")
+    for k in range(60):
+        rig.post("RNG_RANGE_1", 50.0 + (40.0 if k == 40 else 0.0))
+        rig.tick()
+    outliers = [line for line in rig.log.olog_lines if " outlier" in line]
+    assert len(outliers) == 1 and "range=90.000" in outliers[0]
+
+
+def test_a_static_vehicle_has_no_rates_and_fixed_depth_and_tide_pin_z() -> None:
+    rig = Rig("  X = EKF\n  Y = EKF\n  Depth = EKF\n  SENSOR_XY = GPS -> gps ~ 2\n"
+              "  EKF_MOBILE = false\n  FIXEDDEPTH = 0 @ 0.05\n  FIXEDTIDE = 1.5 @ 0.05\n"
+              "  EKF_TIDE = true\n  SENSOR_DEPTH = P -> pressure ~ 0.1\n")
+    rng = np.random.default_rng(3)
+    for k in range(300):
+        if k % 10 == 0:
+            rig.post("GPS_X", 10.0 + rng.normal(0, 2.0))
+            rig.post("GPS_Y", -5.0 + rng.normal(0, 2.0))
+        rig.tick()
+    assert rig.last("EKF_X").double == pytest.approx(10.0, abs=1.5)
+    assert rig.last("EKF_SPEED").double == 0.0  # a static vehicle: no rate states
+    assert rig.last("NAV_DEPTH").double == pytest.approx(0.0, abs=0.05)
+    assert rig.last("EKF_TIDE").double == pytest.approx(1.5, abs=0.05)
+    assert rig.last("EKF_Z").double == pytest.approx(1.5, abs=0.1)  # depth = tide − Z
+
+
+def test_a_gps_antenna_on_a_lever_arm_is_explained_where_it_is() -> None:
+    """An antenna 2 m to starboard: as the boat turns, its fixes circle the hull; with the
+    lever arm declared the filter puts the vehicle's origin where it is, without it 2 m off."""
+    errors = {}
+    for lever in ("2,0,0", "0,0,0"):
+        rig = Rig(GPS_COMPASS.replace("SENSOR_XY = GPS -> gps @ 0,0,0 ~ 2.0",
+                                      f"SENSOR_XY = GPS -> gps @ {lever} ~ 0.3"))
+        for _k in range(1200):
+            t = rig.clock.now() - 1000.0
+            x, y, yaw = circle(t)
+            rig.post("INS_YAW", yaw)
+            if _k % 5 == 0:  # starboard is (cos H, sin H)
+                rig.post("GPS_X", x + 2.0 * math.cos(yaw))
+                rig.post("GPS_Y", y + 2.0 * math.sin(yaw))
+            rig.tick()
+        e = rig.last("EKF_X")
+        tx, ty, _ = circle(e.time - 1000.0)
+        errors[lever] = math.hypot(e.double - tx, rig.last("EKF_Y").double - ty)
+    assert errors["2,0,0"] < 0.3 < 1.5 < errors["0,0,0"]
