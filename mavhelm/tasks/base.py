@@ -237,6 +237,10 @@ class Task:
         out, self._outbox = self._outbox, []
         return out
 
+    def listens_to(self) -> set[str]:
+        """The variables ``offer`` reacts to (the helm offers only those): the StartFlags."""
+        return set(self.start_flags)
+
     def offer(self, msg: Message, now: float) -> None:
         """Every message the helm hears: a StartFlag wakes an idle task, whatever its value.
 

@@ -63,6 +63,9 @@ class VariableHeading(SteeringTask):
     def needs(self) -> set[str]:
         return {HEADING, self.heading_variable}
 
+    def listens_to(self) -> set[str]:
+        return super().listens_to() | {self.heading_variable}
+
     def offer(self, msg: Message, now: float) -> None:
         super().offer(msg, now)
         if msg.name != self.heading_variable or self.state is State.DONE:
