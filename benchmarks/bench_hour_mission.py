@@ -17,7 +17,9 @@ import numpy as np
 from mavhelm.demo.harness import SimulatedRun
 
 CORNERS = [(0.0, 150.0), (150.0, 150.0), (150.0, 0.0), (0.0, 0.0)]
-LAPS = 12
+LAPS = 18
+"""Laps of the 150 m box: 72 legs, about an hour at the rover.parm WP_SPEED (5 m/s × 80 %
+thrust, less the turns); the OverallTimeOut ends it at 3600 s either way."""
 
 
 def hour_mission() -> str:
