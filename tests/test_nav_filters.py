@@ -289,3 +289,21 @@ def test_a_gps_antenna_on_a_lever_arm_is_explained_where_it_is() -> None:
         tx, ty, _ = circle(e.time - 1000.0)
         errors[lever] = math.hypot(e.double - tx, rig.last("EKF_Y").double - ty)
     assert errors["2,0,0"] < 0.3 < 1.5 < errors["0,0,0"]
+
+
+def test_a_replay_ignores_the_recorded_runs_own_nav_outputs() -> None:
+    from mavhelm.nav.replay import replay
+
+    block = parse_mission("ProcessConfig = pNav\n{\n" + GPS_COMPASS + "}\n", "r.moos").processes
+    messages = []
+    for k in range(300):
+        t = 100.0 + 0.1 * k
+        messages.append(Message("INS_YAW", 0.0, t, "iMAVLink"))
+        if k % 10 == 0:
+            messages += [Message("GPS_X", 5.0, t, "iMAVLink"), Message("GPS_Y", 7.0, t, "iMAVLink")]
+        # what the live navigator recorded: must not be scored or routed again
+        messages += [Message("NAV_X", 999.0, t, "pNav"), Message("NAV_Y", 999.0, t, "pNav"),
+                     Message("EKF_X", 999.0, t, "pNav"), Message("EKF_Y", 999.0, t, "pNav")]
+    result = replay(block["pNav"], messages)
+    assert result.tracks["NAV"].x and max(result.tracks["NAV"].x) < 10.0
+    assert len(result.tracks["NAV"].t) == len(set(result.tracks["NAV"].t))

@@ -499,12 +499,18 @@ class MavlinkBridge:
             return
         if not self._from_autopilot(msg):
             return
-        post = self.input.notify
         kind = msg.get_type()
         self._heard.add(kind)
         boot_ms = getattr(msg, "time_boot_ms", None)
         if boot_ms is not None and self.time_source is not None:
             self.time_source(boot_ms / 1000.0)
+        # one stamp for every variable of a message: an autopilot clock moves between two
+        # posts, and GPS_X and GPS_Y stamped microseconds apart are not one fix to pNav (it
+        # dropped 22-83 % of the fixes on the real SITL at x5)
+        stamp = self.bus.clock.now()
+
+        def post(name: str, value: float | str) -> None:
+            self.input.notify(name, value, stamp)
         if kind == "HEARTBEAT":
             if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
                 return
@@ -558,7 +564,7 @@ class MavlinkBridge:
             if speed is not None:
                 post("WHEEL_VX_BODY", speed)
         elif kind == "SIMSTATE":
-            self._truth(msg)
+            self._truth(msg, post)
         elif kind == "EKF_STATUS_REPORT":
             self.ekf_position_ok = bool(msg.flags & mavlink.EKF_POS_HORIZ_ABS)
         elif kind == "PARAM_VALUE":
@@ -583,7 +589,8 @@ class MavlinkBridge:
             self._last_statustext = msg.text
             post("AP_STATUSTEXT", msg.text)
 
-    def _truth(self, msg: mavlink.MAVLink_simstate_message) -> None:
+    def _truth(self, msg: mavlink.MAVLink_simstate_message,
+               post: Callable[[str, float | str], None]) -> None:
         """A simulator's true pose, for judging the navigator on SITL (never steered by)."""
         if msg.lat == 0 and msg.lng == 0:
             return
@@ -592,9 +599,9 @@ class MavlinkBridge:
         if not math.isfinite(msg.yaw):
             raise ValueError("non-finite yaw")
         x, y = self.origin.to_local(msg.lat * 1e-7, msg.lng * 1e-7)
-        self.input.notify("TRUTH_X", x)
-        self.input.notify("TRUTH_Y", y)
-        self.input.notify("TRUTH_HEADING", math.degrees(msg.yaw) % 360.0)
+        post("TRUTH_X", x)
+        post("TRUTH_Y", y)
+        post("TRUTH_HEADING", math.degrees(msg.yaw) % 360.0)
 
     def _check_distance(self, x: float, y: float) -> None:
         """Say once if the vehicle is far from the mission's origin: the wrong mission file,

@@ -26,6 +26,9 @@ from mavhelm.core.mission import Block
 from mavhelm.nav.ekf import Estimate
 from mavhelm.nav.navigator import Navigator
 
+OWN_OUTPUTS = ("NAV_", "EKF_", "LSQ_")
+"""What the navigator posts: in a recorded companion log these are the live run's, and the
+replay makes its own (a recorded EKF_X fed back would be scored, and routed, twice)."""
 TRUTH_X = "TRUTH_X"
 TRUTH_Y = "TRUTH_Y"
 SCORED = ("NAV", "EKF", "LSQ", "GPS")
@@ -103,7 +106,8 @@ class ReplayResult:
 def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
            log: object | None = None) -> ReplayResult:
     """Run the navigator of a ``pNav`` block over ``messages`` (any order; sorted by time)."""
-    ordered = sorted(messages, key=lambda m: m.time)
+    ordered = sorted((m for m in messages if not m.name.startswith(OWN_OUTPUTS)),
+                     key=lambda m: m.time)
     truth = Track()
     for m in ordered:
         if m.name in (TRUTH_X, TRUTH_Y) and m.is_double:
