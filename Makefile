@@ -35,6 +35,9 @@ bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_link.py
 	$(BIN)/python benchmarks/bench_ardupilot_demo.py
 	$(BIN)/python benchmarks/bench_tracking.py
+	$(BIN)/python benchmarks/bench_nav.py
+	$(BIN)/python benchmarks/bench_nav_ardupilot.py
+	$(BIN)/python benchmarks/bench_step_response.py
 
 params: $(BIN)/.installed
 	$(BIN)/mavhelm params > docs/parameters.md
