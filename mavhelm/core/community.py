@@ -17,6 +17,7 @@ class Community:
         self.ticks = 0
         self.profile = profile
         self.app_seconds: dict[str, list[float]] = defaultdict(list)
+        self._subscribed: dict[str, set[str]] = {}
 
     def tick(self, now: float) -> None:
         """Every app (re)subscribes, then each in order takes its mail and iterates.
@@ -25,7 +26,10 @@ class Community:
         widened the helm's interests, nothing an earlier app posts is lost to a later one.
         """
         for app in self.apps:
-            self.bus.subscribe(app.name, app.subscriptions())
+            names = app.subscriptions()
+            if self._subscribed.get(app.name) != names:  # the bus keeps what it was told
+                self.bus.subscribe(app.name, names)
+                self._subscribed[app.name] = set(names)
         for app in self.apps:
             t0 = time.perf_counter() if self.profile else 0.0
             app.on_mail(self.bus.fetch(app.name), now)

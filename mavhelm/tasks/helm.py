@@ -85,6 +85,8 @@ class Helm(App):
                 )
         self.nav = NavState()
         self._subs: tuple[tuple, frozenset[str]] | None = None
+        self._ends: tuple[tuple, list[Task]] | None = None
+        self._task_events = 0
         self._routes: tuple[tuple, dict[str, list[Task]]] | None = None
         self.online = False
         self.mission_started = False
@@ -115,7 +117,7 @@ class Helm(App):
         reload then finds navigation already current, not one tick late. Rebuilt only when a
         task, its flags or its needs change (a HoldingPattern needs NAV_* once it has a place
         to hold): with fifty tasks, every tick, it was a tenth of an hour-long lockstep run."""
-        key = tuple((id(t), len(t.start_flags), frozenset(t.needs())) for t in self.tasks)
+        key = self._tasks_key()
         if self._subs is None or self._subs[0] != key:
             subs = {ONLINE_VAR, REQUEST_VARIABLE, *ALWAYS_HEARD}
             subs.update(source_variable(name) for name in ALWAYS_HEARD)
@@ -128,10 +130,22 @@ class Helm(App):
             self._subs = (key, frozenset(subs))
         return set(self._subs[1])
 
+    def _tasks_key(self) -> tuple[int, int, int]:
+        """Changes when the task list does (a guest's task appended) or a task starts or ends
+        (a HoldingPattern's needs are known once it starts): what the cached subscriptions,
+        listeners and EndMission list depend on."""
+        return len(self.tasks), id(self.tasks[-1]) if self.tasks else 0, self._task_events
+
+    def _end_missions(self) -> list[Task]:
+        key = self._tasks_key()
+        if self._ends is None or self._ends[0] != key:
+            self._ends = (key, [t for t in self.tasks if isinstance(t, EndMission)])
+        return self._ends[1]
+
     def _listeners(self) -> dict[str, list[Task]]:
         """Per variable, the tasks whose ``offer`` reacts to it (``Task.listens_to``): offering
         every message to every task was another tenth of that run."""
-        key = tuple((id(t), len(t.start_flags)) for t in self.tasks)
+        key = self._tasks_key()
         if self._routes is None or self._routes[0] != key:
             listeners: dict[str, list[Task]] = {}
             for t in self.tasks:
@@ -193,7 +207,7 @@ class Helm(App):
                 closing.end("closed", f"closed by {reply.who}")
 
     def _locked(self) -> list[Task]:
-        return [t for t in self.tasks if isinstance(t, EndMission) and t.active]
+        return [t for t in self._end_missions() if t.active]
 
     def _run_tasks(self, now: float) -> list[tuple[Task, Votes]]:
         """Step every active task once, in mission order, and collect their ballots.
@@ -203,7 +217,6 @@ class Helm(App):
         DESIRED_THRUST = 0) between two legs. The bus delivers the same flags next tick, which
         is harmless, since a task starts only once.
         """
-        order = {id(t): i for i, t in enumerate(self.tasks)}
         stepped: set[int] = set()
         ballots: list[tuple[Task, Votes]] = []
         while True:
@@ -223,7 +236,7 @@ class Helm(App):
         locked = self._locked()
         if locked:
             ballots = [b for b in ballots if b[0] in locked]
-        return sorted(ballots, key=lambda b: order[id(b[0])])
+        return sorted(ballots, key=lambda b: self.tasks.index(b[0]))  # mission order
 
     def _flush(self) -> list[tuple[str, float | str]]:
         """Post what the tasks queued; return it."""
@@ -232,6 +245,8 @@ class Helm(App):
             for name, value in t.take_notifications():
                 self.notify(name, value)
                 posted.append((name, value))
+                if name in ("TASK_STARTED", "TASK_ENDED"):
+                    self._task_events += 1
                 if name == "TASK_STARTED" and isinstance(t, EndMission) and not self.mission_ended:
                     self.mission_ended = True
                     self.notify("MISSION_ENDED", t.name)
