@@ -85,12 +85,16 @@ def plaza_replay() -> None:
                        capture_output=True)
         block = load_mission(mission).process("pNav")
         messages = read_alog(alog)
-        wall, cpu = time.perf_counter(), time.process_time()
-        result = replay(block, messages)
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        walls = []
+        for _ in range(3):  # a shared machine: the best of three is the code's own speed
+            wall, cpu = time.perf_counter(), time.process_time()
+            result = replay(block, messages)
+            walls.append((time.perf_counter() - wall, time.process_time() - cpu))
+        wall, cpu = min(walls)
         print(f"Plaza1 replay through the navigator: {result.span:.0f} s of log, "
-              f"{len(messages)} variables, {result.ticks} ticks")
-        print(f"  {wall:.2f} s wall ({cpu:.2f} s CPU): {result.span / wall:.0f}x real time; "
+              f"{len(messages)} variables, {result.ticks} ticks; runs "
+              + ", ".join(f"{w:.2f}" for w, _ in walls) + " s wall")
+        print(f"  best {wall:.2f} s wall ({cpu:.2f} s CPU): {result.span / wall:.0f}x real time; "
               f"a one-hour log of this density: {3600 / result.span * wall:.1f} s")
         print(f"  accuracy: {result.accuracy('NAV')}")
 

@@ -631,6 +631,8 @@ class EKF:
         def rows_of(which: list[int]) -> np.ndarray:
             return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
 
+        full_inverse: list[np.ndarray] = []
+
         def d2_of(which: list[int]) -> tuple[float, int]:
             if len(which) == 1:
                 a, b = first[which[0]], first[which[0] + 1]
@@ -638,7 +640,8 @@ class EKF:
                     return float(y[a] * y[a] / S[a, a]), 1
                 return float(y[a:b] @ np.linalg.solve(S[a:b, a:b], y[a:b])), int(b - a)
             if len(which) == len(parts):
-                return float(y @ np.linalg.solve(S, y)), len(y)
+                full_inverse.append(np.linalg.inv(S))  # the update reuses it
+                return float(y @ full_inverse[-1] @ y), len(y)
             idx = rows_of(which)
             yi = y[idx]
             return float(yi @ np.linalg.solve(S[idx][:, idx], yi)), len(idx)
@@ -657,7 +660,8 @@ class EKF:
             alive.remove(max(alive, key=leave_out))
         if alive:
             idx = None if len(alive) == len(parts) else rows_of(alive)
-            self._apply(rows, idx, y, S, PHt)
+            self._apply(rows, idx, y, S, PHt,
+                        full_inverse[0] if idx is None and full_inverse else None)
         keep = set(alive)
         return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in keep)
                              for k, obs in enumerate(observations)])
@@ -676,14 +680,15 @@ class EKF:
         return y
 
     def _apply(self, rows: _Rows, idx: np.ndarray | None, y: np.ndarray, S: np.ndarray,
-               PHt: np.ndarray) -> None:
+               PHt: np.ndarray, S_inv: np.ndarray | None = None) -> None:  # noqa: N803
         """The Kalman correction with the accepted rows ``idx`` (None: all), reusing the
         innovation covariance the gating computed."""
         if idx is None:
             Ss, PHts, yi, r = S, PHt, y, rows.r
         else:
             Ss, PHts, yi, r = S[idx][:, idx], PHt[:, idx], y[idx], rows.r[idx]
-        S_inv = np.linalg.inv(Ss)
+        if S_inv is None:
+            S_inv = np.linalg.inv(Ss)
         K = PHts @ S_inv
         kf = self.kf
         kf.x = kf.x + (K @ yi).reshape(-1, 1)

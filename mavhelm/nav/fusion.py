@@ -180,18 +180,25 @@ class Fusion:
         try:
             if self.ekf is None and self.config.start is not None:
                 self._boot_at_start(horizon)
+            sliced = False
             while self._queue and self._queue[0][0] <= horizon:
                 t = self._queue[0][0]
                 batch = []
                 while self._queue and self._queue[0][0] == t:
                     batch.append(heapq.heappop(self._queue)[2])
                 self._slice(t, batch)
+                sliced = True
             self.horizon = horizon
-            if self.ekf is not None:
+            fixed = (fixed_observations(horizon, self.config.fixed_depth,
+                                        self.config.fixed_heading, self.config.fixed_tide,
+                                        self.config.fixed_sideslip)
+                     if self.ekf is not None else [])
+            if self.ekf is not None and (fixed or not sliced):
+                # a tick with data leaves the filter at its newest slice, and the forecast
+                # takes it on to now; a tick without (or with fixed observations to apply)
+                # predicts to the horizon, so a filter starved of data still grows
+                # uncertain, and fails, in time
                 self.ekf.advance(horizon)
-                fixed = fixed_observations(horizon, self.config.fixed_depth,
-                                           self.config.fixed_heading, self.config.fixed_tide,
-                                           self.config.fixed_sideslip)
                 if fixed:
                     result = self.ekf.update(fixed)
                     for v in result.verdicts:
