@@ -87,6 +87,9 @@ from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
     _set_parent_death_signal,
     ardupilot_binary,
 )
+from nav_sim_rig import BEACONS as RIG_BEACONS  # noqa: E402
+from nav_sim_rig import LAT, LON, SERIAL  # noqa: E402
+from nav_sim_rig import mission_text as rig_mission  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from mavhelm.companion.alog import read_alog  # noqa: E402
@@ -95,7 +98,7 @@ from mavhelm.core.geodesy import Origin  # noqa: E402
 from mavhelm.core.mission import parse_mission  # noqa: E402
 from mavhelm.nav.replay import Accuracy, accuracy, replay  # noqa: E402
 
-LAT0, LON0 = 56.4120, -5.4760          # the mission's origin = the SITL's home
+LAT0, LON0 = LAT, LON                  # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
 SPEEDUP = 5                            # 10 starves the companion on 2 cores
 HAND_OVER_WALL_S = 60.0
@@ -122,52 +125,9 @@ SETTLE_S = 30.0                        # autopilot s after the hand-over not sco
 BEFORE_OUTAGE_S = 60.0
 OUTAGE_S = 120.0
 AFTER_OUTAGE_S = 50.0
-BEACONS = ((1, -60.0, -60.0, -1.0), (2, 160.0, -50.0, -1.0), (3, 50.0, 160.0, -1.0))
+BEACONS = tuple((int(b.id), b.x, b.y, b.z) for b in RIG_BEACONS)
+"""The simulator tests' three radio beacons, as (id, x, y, z)."""
 M_PER_DEG_LAT = 111_194.93             # the SITL's spherical earth (6371 km)
-
-MISSION = """
-LatOrigin  = {lat}
-LongOrigin = {lon}
-
-ProcessConfig = iMAVLink
-{{
-    OnlineModes = GUIDED
-    MaxTurnRate = 45
-    Stream      = SIMSTATE@10
-}}
-{serial}
-ProcessConfig = pNav
-{{
-{nav}}}
-
-ProcessConfig = pHelm
-{{
-    AppTick   = 10
-    MAXRUDDER = 30
-    Task = XYPattern
-    {{
-        Name     = Box
-        Priority = 3
-        Location = 0,0
-        Location = 100,0
-        Location = 100,100
-        Location = 0,100
-        Repeat   = FOREVER
-        Radius   = 8
-        Thrust   = {thrust:g}
-        TimeOut  = 3000
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut    = 3000
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
 
 NAV_NOISE = """\
     X       = EKF @ 2
@@ -198,21 +158,15 @@ NAV_OUTAGE = """\
     LSQ_TIMEOUT        = NEVER
 """ + "".join(f"    BEACON = {i} @ {x:g},{y:g},{z:g}\n" for i, x, y, z in BEACONS)
 
-SERIAL = """
-ProcessConfig = iSerial_{label}
-{{
-    Name      = {name}
-    Port      = {port}
-    Sentences = {sentences}
-}}
-"""
 INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
                "ranges": ("RNG", "PMVHRNG")}
 """The instruments' ports the companion reads: pty name → (iSerial Name, Sentences)."""
 
 
 def mission_text(nav: str, serial: str = "", thrust: float = 60.0) -> str:
-    return MISSION.format(lat=LAT0, lon=LON0, serial=serial, nav=nav, thrust=thrust)
+    """The simulator tests' box patrol (tests/nav_sim_rig.py), with SIMSTATE streamed to the
+    companion: the truth every figure here is scored against."""
+    return rig_mission(serial, nav, thrust=thrust, imavlink="    Stream      = SIMSTATE@10\n")
 
 
 # ---- the ground station -------------------------------------------------------------------------

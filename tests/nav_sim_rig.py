@@ -40,7 +40,7 @@ ProcessConfig = iMAVLink
     Connect = tcp:127.0.0.1:5760
     OnlineModes = GUIDED
     MaxTurnRate = 45
-}}
+{imavlink}}}
 {serial}
 ProcessConfig = pNav
 {{
@@ -60,7 +60,7 @@ ProcessConfig = pHelm
         Location = 0,100
         Repeat   = FOREVER
         Radius   = 8
-        Thrust   = 60
+        Thrust   = {thrust:g}
         TimeOut  = 3000
     }}
     Task = OverallTimeOut
@@ -74,6 +74,13 @@ ProcessConfig = pHelm
     }}
 }}
 """
+
+def mission_text(serial: str, nav: str, *, thrust: float = 60.0, imavlink: str = "") -> str:
+    """The box patrol mission (also the ArduPilot benchmark's) with these iSerial blocks,
+    pNav lines, thrust and extra iMAVLink lines."""
+    return MISSION.format(lat=LAT, lon=LON, serial=serial, nav=nav, thrust=thrust,
+                          imavlink=imavlink)
+
 
 SERIAL = """
 ProcessConfig = iSerial_{label}
@@ -150,7 +157,7 @@ def start(nav_lines: str, *, ranging: str | None = None, scenario: str = "",
              "ranges": ("RNG", "PMVHRNG"), "lbl": ("LBL", "PMVHLBL")}
     serial = "".join(SERIAL.format(label=p.name, name=kinds[p.name][0], port=p.slave_path,
                                    sentences=kinds[p.name][1]) for p in ports)
-    text = MISSION.format(lat=LAT, lon=LON, serial=serial, nav=nav_lines)
+    text = mission_text(serial, nav_lines)
     mission = parse_mission(text, str(tmp_path / "nav.moos"))
     names = {f"{s}_{k}" for s in ("NAV", "EKF", "LSQ", "GPS") for k in ("X", "Y")}
     names |= {"NAV_X_SOURCE", "NAV_WARNING", "NAVIGATION_FAILURE", "EndMission",

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-from nav_sim_rig import LAT, LON, MISSION, SERIAL, NavRun
+from nav_sim_rig import LAT, LON, SERIAL, NavRun, mission_text
 
 from mavhelm.companion.link import RETRY_MAX_S
 from mavhelm.core.mission import parse_mission
@@ -69,7 +69,7 @@ def start(tmp_path: Path, link: Path, seed: int = 3, nav_lines: str = NAV
                          ("GPS", "SGPS", link, "GGA,RMC"),
                          ("Compass", "HDG", heading.slave_path, "HDT"),
                          ("Sounder", "SND", sounder.slave_path, "DPT,DBT")))
-    text = MISSION.format(lat=LAT, lon=LON, serial=serial, nav=nav_lines)
+    text = mission_text(serial, nav_lines)
     mission = parse_mission(text, str(tmp_path / "nav.moos"))
     record = {f"{s}_{k}" for s in ("NAV", "EKF", "SGPS") for k in ("X", "Y")}
     record |= {f"{n}_{k}" for n in ("SGPS", "HDG", "SND")
