@@ -474,7 +474,8 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
     assert servo9_before == {0}, "output 9 idle before the hand-over"
     assert {m.double for m in sent9} == {1700.0}, "+50 % of 1100..1900"
     assert 0.0 <= sent9[0].time - online9.time <= 0.15, "sent at once when online"
-    assert refresh9 and all(1.9 <= gap <= 2.3 for gap in refresh9), refresh9
+    # never early (timed on the clock that stamps the log); late by at most a few ticks
+    assert refresh9 and all(2.0 <= gap <= 2.5 for gap in refresh9), refresh9
     assert (at_1700 - handed) / 1000 <= 2.0
     assert len(sent1) >= 3 and len(acks) >= 3, "refreshed every 2 s while online"
     assert all(not a.endswith(f"result={mavlink.MAV_RESULT_ACCEPTED}") for a in acks), acks

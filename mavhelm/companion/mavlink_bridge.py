@@ -740,8 +740,11 @@ class MavlinkBridge:
                 self._named_values.pop(name, None)  # not driving: no demand to show
             return
         desired = {m.name: m.value for m in mail if m.is_double}
-        for servo, pwm in self.servos.update(self.link.mav, desired, now):
-            self.output.notify(f"AP_CMD_SERVO{servo.channel}", float(pwm))
+        # an autopilot clock moves while the tick runs: the refresh is timed, and logged, by
+        # the moment of sending, so the log shows the interval the autopilot saw
+        sent_at = self.bus.clock.now()
+        for servo, pwm in self.servos.update(self.link.mav, desired, sent_at):
+            self.output.notify(f"AP_CMD_SERVO{servo.channel}", float(pwm), sent_at)
         if "DESIRED_RUDDER" not in desired and "DESIRED_THRUST" not in desired:
             return
         rudder = self._guard("DESIRED_RUDDER", desired.get("DESIRED_RUDDER", 0.0),
