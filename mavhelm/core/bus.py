@@ -47,6 +47,8 @@ class Bus:
         self._wildcard: set[str] = set()
         self._mail: dict[str, list[Message]] = defaultdict(list)
         self._latest: dict[str, Message] = {}
+        self._routes: dict[str, tuple[str, ...]] = {}
+        """Per variable, every client it goes to (its subscribers and the wildcard ones)."""
 
     def subscribe(self, client: str, names: Iterable[str]) -> None:
         for name in names:
@@ -55,6 +57,7 @@ class Bus:
             else:
                 self._subscribers[name].add(client)
         self._mail.setdefault(client, [])
+        self._routes.clear()
 
     def notify(
         self, name: str, value: float | str, source: str, time: float | None = None
@@ -63,11 +66,12 @@ class Bus:
             value = float(value)
         msg = Message(name, value, self.clock.now() if time is None else time, source)
         self._latest[name] = msg
-        for client in self._subscribers.get(name, ()):
-            self._mail[client].append(msg)
-        for client in self._wildcard:
-            if client not in self._subscribers.get(name, ()):
-                self._mail[client].append(msg)
+        route = self._routes.get(name)
+        if route is None:
+            route = self._routes[name] = tuple(self._subscribers.get(name, set()) | self._wildcard)
+        mail = self._mail
+        for client in route:
+            mail[client].append(msg)
         return msg
 
     def fetch(self, client: str) -> list[Message]:

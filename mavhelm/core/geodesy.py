@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import pymap3d
 
@@ -25,9 +26,16 @@ class Origin:
     lat: float
     lon: float
 
+    @cached_property
+    def _ecef(self) -> tuple[float, float, float]:
+        return pymap3d.geodetic2ecef(self.lat, self.lon, 0.0)
+
     def to_local(self, lat: float, lon: float) -> tuple[float, float]:
-        """(x east, y north) in metres."""
-        e, n, _ = pymap3d.geodetic2enu(lat, lon, 0.0, self.lat, self.lon, 0.0)
+        """(x east, y north) in metres: pymap3d's geodetic2enu, with the origin's ECEF
+        position worked out once (the bridge converts every GPS fix)."""
+        x, y, z = pymap3d.geodetic2ecef(lat, lon, 0.0)
+        x0, y0, z0 = self._ecef
+        e, n, _ = pymap3d.uvw2enu(x - x0, y - y0, z - z0, self.lat, self.lon)
         return float(e), float(n)
 
     def to_global(self, x: float, y: float) -> tuple[float, float]:

@@ -237,6 +237,10 @@ class Task:
         out, self._outbox = self._outbox, []
         return out
 
+    @property
+    def has_notifications(self) -> bool:
+        return bool(self._outbox)
+
     def listens_to(self) -> set[str]:
         """The variables ``offer`` reacts to (the helm offers only those): the StartFlags."""
         return set(self.start_flags)
@@ -278,7 +282,7 @@ class Task:
         run = now - self.start_time
         return run - self.offline_time if self.timeout_clock == "ONLINE" else run
 
-    def starving(self, nav: NavState, now: float) -> list[str]:
+    def starving(self, nav: NavState, now: float, needs: set[str] | None = None) -> list[str]:
         """Needed variables not heard for more than 10 s (counted from activation if never).
 
         As in MOOS, data that went silent before the task started counts: a task woken while
@@ -286,7 +290,7 @@ class Task:
         """
         assert self.start_time is not None
         silent = []
-        for name in sorted(self.needs()):
+        for name in sorted(self.needs() if needs is None else needs):
             t = nav.time(name)
             since = self.start_time if t is None else t
             if now - since > STARVATION_S:
@@ -305,16 +309,17 @@ class Task:
         if self.timeout is not None and self.elapsed(now) > self.timeout:
             self.end(TIMEOUT, f"task {self.name} timed out after {self.timeout:g} s")
             return None
-        silent = self.starving(nav, now)
+        needs = self.needs()
+        silent = self.starving(nav, now, needs)
         if silent:
             self.end(
                 STARVED,
                 f"task {self.name} starved: no {', '.join(silent)} for {STARVATION_S:g} s",
             )
             return None
-        if any(nav.get(name) is None for name in self.needs()):
+        if any(nav.get(name) is None for name in needs):
             return None
-        lost = sorted(name for name in self.needs() if nav.lost(name))
+        lost = sorted(name for name in needs if nav.lost(name))
         if lost:
             if not self._holding:
                 self.post(f"{self.name}_WARNING",

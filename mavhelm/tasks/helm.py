@@ -229,10 +229,14 @@ class Helm(App):
                 if votes:
                     ballots.append((t, votes))
             listeners = self._listeners()
+            offered = False
             for name, value in self._flush():
                 msg = Message(name, value, now, self.name)
                 for t in listeners.get(name, ()):
                     t.offer(msg, now)
+                    offered = True
+            if not offered:  # only an offered flag can start a task
+                break
         locked = self._locked()
         if locked:
             ballots = [b for b in ballots if b[0] in locked]
@@ -242,6 +246,8 @@ class Helm(App):
         """Post what the tasks queued; return it."""
         posted: list[tuple[str, float | str]] = []
         for t in self.tasks:
+            if not t.has_notifications:
+                continue
             for name, value in t.take_notifications():
                 self.notify(name, value)
                 posted.append((name, value))

@@ -83,10 +83,10 @@ class VariableHeading(SteeringTask):
                       f"{self.heading_variable} = {shown} is not a heading in [-360, 360] "
                       f"degrees: ignored, holding {kept}")
 
-    def starving(self, nav: NavState, now: float) -> list[str]:
+    def starving(self, nav: NavState, now: float, needs: set[str] | None = None) -> list[str]:
         """As the base, but only valid headings feed the task: a stream of bad ones starves it."""
         assert self.start_time is not None
-        silent = [n for n in super().starving(nav, now) if n != self.heading_variable]
+        silent = [n for n in super().starving(nav, now, needs) if n != self.heading_variable]
         since = self.start_time if self._goal_time is None else self._goal_time
         if now - since > STARVATION_S:
             silent.append(self.heading_variable)
