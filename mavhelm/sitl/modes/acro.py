@@ -26,8 +26,8 @@ class ModeAcro(Mode):
         a = self.ap
         steer, thr = a.pilot_input(now)
         rate = steer * a.params["ACRO_TURN_RATE"]
-        a.steering = a.atc.rate_control(rate, a.est.yaw_rate, dt)
-        a.throttle = a.atc.speed_control(thr * self.speed_max(), a.est.forward_speed, dt)
+        a.steering = a.atc.rate_control(rate, a.est.yaw_rate, dt, now)
+        self.calc_throttle(thr * self.speed_max(), now, dt)
 
 
 class ModeSteering(ModeAcro):

@@ -65,7 +65,7 @@ class Mode:
 
     def update(self, now: float, dt: float) -> None:
         """One control-loop pass while armed: set the autopilot's steering and throttle."""
-        self.stop_vehicle(dt)
+        self.stop_vehicle(now, dt)
 
     # ------------------------------------------------------------------ shared helpers
     def speed_max(self) -> float:
@@ -92,39 +92,41 @@ class Mode:
             return target
         return min(target, pilot) if reversed_ else max(target, pilot)
 
-    def stop_vehicle(self, dt: float) -> None:
-        """Mode::stop_vehicle: straight rudder, brake to a stop, then release the throttle."""
+    def calc_throttle(self, speed: float, now: float, dt: float) -> None:
+        """Mode::calc_throttle: the speed controller for a (accel-limited) target speed; a
+        target of zero runs the controlled stop instead (get_throttle_out_stop)."""
+        a = self.ap
+        speed = a.atc.desired_speed_limited(speed, dt, now)
+        if speed == 0.0:
+            a.throttle, _ = a.atc.stop_control(a.est.forward_speed, dt, now)
+        else:
+            a.throttle = a.atc.speed_control(speed, a.est.forward_speed, dt, now)
+
+    def stop_vehicle(self, now: float, dt: float) -> bool:
+        """Mode::stop_vehicle: straight rudder and a controlled stop: the desired speed slews
+        to zero at ATC_DECEL_MAX (else ATC_ACCEL_MAX) and the speed controller follows it, with
+        reverse thrust if it must; the throttle is released once that desired speed is zero and
+        the vehicle is within ATC_STOP_SPEED. True once stopped."""
         a = self.ap
         a.steering = 0.0
-        if abs(a.est.forward_speed) < a.params["ATC_STOP_SPEED"]:
-            a.atc.speed_pid.reset()
-            a.atc.speed_target = 0.0
-            a.throttle = 0.0
-        else:
-            a.throttle = a.atc.speed_control(0.0, a.est.forward_speed, dt)
+        a.throttle, stopped = a.atc.stop_control(a.est.forward_speed, dt, now)
+        return stopped
 
-    def loiter(self, dt: float) -> None:
-        """Hold near ``loiter_point`` (ModeLoiter's rule, also used by boats in GUIDED and at
-        the end of RTL): inside LOIT_RADIUS stop, outside drive back at a speed ∝ distance."""
+    def start_loiter(self) -> None:
+        """ModeLoiter::_enter (what GUIDED and RTL call for a boat with nothing to do): hold
+        the stopping point ahead (AR_WPNav::get_stopping_location), keeping the heading."""
+        self.ap.modes[LOITER].enter_loiter()
+
+    def loiter(self, now: float, dt: float) -> None:
+        """ModeLoiter::update on the shared loiter state (upstream calls
+        ``rover.mode_loiter.update()`` from GUIDED and RTL too)."""
         a = self.ap
-        est = a.est
         if a.loiter_point is None:
-            a.loiter_point = (est.x, est.y)
-        lx, ly = a.loiter_point
-        dist = math.hypot(lx - est.x, ly - est.y)
-        radius = a.params["LOIT_RADIUS"]
-        if dist <= radius:
-            self.stop_vehicle(dt)
-            return
-        speed = min(a.params["LOIT_SPEED_GAIN"] * (dist - radius) + 0.3, a.params["WP_SPEED"])
-        bearing = math.degrees(math.atan2(lx - est.x, ly - est.y))
-        err = abs(wrap180(bearing - est.heading))
-        a.steering = a.atc.heading_control(bearing, est.heading, est.yaw_rate, dt)
-        a.throttle = a.atc.speed_control(speed * max(0.0, math.cos(math.radians(err))),
-                                         est.forward_speed, dt)
+            self.start_loiter()
+        a.modes[LOITER].update_loiter(now, dt)
 
     def navigate_to_waypoint(self, target: tuple[float, float], speed: float,
-                             dt: float) -> bool:
+                             now: float, dt: float) -> bool:
         """Mode::navigate_to_waypoint: drive toward target; True once within WP_RADIUS."""
         a = self.ap
         est = a.est
@@ -137,6 +139,6 @@ class Mode:
         accel = a.params["ATC_ACCEL_MAX"] or 1.0
         v = min(speed, math.sqrt(2.0 * accel * 0.5 * dist))
         v *= max(0.1, math.cos(math.radians(min(err, 90.0))))
-        a.steering = a.atc.heading_control(bearing, est.heading, est.yaw_rate, dt)
-        a.throttle = a.atc.speed_control(v, est.forward_speed, dt)
+        a.steering = a.atc.heading_control(bearing, est.heading, est.yaw_rate, dt, now)
+        a.throttle = a.atc.speed_control(v, est.forward_speed, dt, now)
         return False

@@ -64,11 +64,12 @@ class ModeGuided(Mode):
         self.speed = None
 
     def idle(self) -> None:
-        """No target: a boat loiters where it is, a rover stops."""
+        """No target (ModeGuided::_enter, arrival, a timed-out target): a boat loiters at its
+        stopping point (start_loiter), a rover stops (start_stop)."""
         a = self.ap
         if a.boat and a.position_ok():
             self.sub = GuidedSubMode.LOITER
-            a.loiter_point = (a.est.x, a.est.y)
+            self.start_loiter()
         else:
             self.sub = GuidedSubMode.STOP
 
@@ -116,25 +117,26 @@ class ModeGuided(Mode):
                 nudge = self.speed_nudge(self.desired_speed, now)
                 if sub == GuidedSubMode.HEADING_AND_SPEED:
                     a.steering = a.atc.heading_control(self.desired_heading, est.heading,
-                                                       est.yaw_rate, dt)
+                                                       est.yaw_rate, dt, now)
                 else:
-                    a.steering = a.atc.rate_control(self.desired_rate, est.yaw_rate, dt)
-                a.throttle = a.atc.speed_control(nudge, est.forward_speed, dt)
-            elif a.boat and a.position_ok():
-                a.loiter_point = (est.x, est.y)
-                self.sub = GuidedSubMode.LOITER
-                self.loiter(dt)
+                    a.steering = a.atc.rate_control(self.desired_rate, est.yaw_rate, dt, now)
+                # a zero speed (a velocity target of 0) is the controlled stop
+                self.calc_throttle(nudge, now, dt)
             else:
-                self.sub = GuidedSubMode.STOP
-                self.stop_vehicle(dt)
+                # timed out: a boat loiters at its stopping point, a rover stops
+                self.idle()
+                if self.sub == GuidedSubMode.LOITER:
+                    self.loiter(now, dt)
+                else:
+                    self.stop_vehicle(now, dt)
         elif sub == GuidedSubMode.WP and a.wp is not None:
-            if self.navigate_to_waypoint(a.wp, self.speed or a.params["WP_SPEED"], dt):
+            if self.navigate_to_waypoint(a.wp, self.speed or a.params["WP_SPEED"], now, dt):
                 if a.wp_notify:
                     a.wp_notify = False
                     a.out.reached.append(0)
                 a.wp = None
                 self.idle()
         elif sub == GuidedSubMode.LOITER:
-            self.loiter(dt)
+            self.loiter(now, dt)
         else:
-            self.stop_vehicle(dt)
+            self.stop_vehicle(now, dt)

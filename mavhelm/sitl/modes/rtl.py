@@ -37,16 +37,16 @@ class ModeRTL(Mode):
     def update(self, now: float, dt: float) -> None:
         a = self.ap
         speed = a.params["RTL_SPEED"] or a.params["WP_SPEED"]
-        if a.wp is not None and self.navigate_to_waypoint(a.wp, speed, dt):
+        if a.wp is not None and self.navigate_to_waypoint(a.wp, speed, now, dt):
             a.wp = None
             a.text(SEVERITY_INFO, "Reached destination")
             if a.boat:
-                a.loiter_point = (a.est.x, a.est.y)
+                self.start_loiter()
         if a.wp is None:
             if a.boat:
-                self.loiter(dt)
+                self.loiter(now, dt)
             else:
-                self.stop_vehicle(dt)
+                self.stop_vehicle(now, dt)
 
 
 class ModeSmartRTL(ModeRTL):

@@ -1,0 +1,80 @@
+"""Benchmark: how the motorboat brakes under its autopilot, real ArduPilot SITL against mavhelm.
+
+Runs the script of tests/braking.py (armed in GUIDED, straight at 1.6 then 4 m/s on a refreshed
+velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the real SITL
+(``--model motorboat``, stock ``--defaults``, calm, ``--speedup 10``) and on ``mavhelm sim
+--model motorboat`` with the same files, and prints the figures side by side: speed at the
+stop and 1 s / 3 s after, time to 0.3 m/s and to < 0.1 m/s, time until it stays stopped, the
+astern overshoot, the lowest throttle servo. ``--own-gains`` runs the simulator with its own
+controller gains instead of ArduPilot's compiled-in ones (braking.ARDUPILOT_GAINS).
+Times are autopilot seconds. Figures only; asserts nothing. Needs MAVHELM_ARDUPILOT (the
+ardurover SITL binary) for the real column; without it, says so, prints the simulator's figures
+and exits 0.
+
+Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
+benchmarks/bench_braking.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+from ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary  # noqa: E402
+from braking import (  # noqa: E402  (tests/ is on the path only now)
+    ARDUPILOT_GAINS,
+    CALM,
+    HOME,
+    RealBrakeSide,
+    SimBrakeSide,
+    print_table,
+    run_braking,
+    sim_rig,
+    write_stock_parms,
+)
+
+SPEEDUP = 10
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--own-gains", action="store_true",
+                        help="the simulator's own ATC_ gains, not ArduPilot's defaults")
+    args = parser.parse_args(argv)
+    binary = ardupilot_binary()
+    with tempfile.TemporaryDirectory(prefix="mavhelm-bench-braking-") as tmp:
+        params_dir = (binary.parent / "params" if binary is not None
+                      else write_stock_parms(Path(tmp) / "parm"))
+        t = time.monotonic()
+        rig = sim_rig(params_dir, **({} if args.own_gains else ARDUPILOT_GAINS))
+        try:
+            sim = run_braking(SimBrakeSide(rig))
+        finally:
+            rig.close()
+        print(f"mavhelm sim: {time.monotonic() - t:.1f} s wall", flush=True)
+        real = None
+        if binary is None:
+            print(f"bench_braking: no real SITL: {ARDUPILOT_ENV} is not set (point it at the "
+                  "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover); simulator only")
+        else:
+            t = time.monotonic()
+            with RealSitl(Path(tmp) / "real", model="motorboat", speedup=SPEEDUP, home=HOME,
+                          params=CALM, binary=binary) as sitl:
+                side = RealBrakeSide(sitl)
+                try:
+                    real = run_braking(side)
+                finally:
+                    side.close()
+            print(f"real SITL (--speedup {SPEEDUP}): {time.monotonic() - t:.1f} s wall")
+    print_table(real, sim)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

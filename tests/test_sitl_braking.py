@@ -1,0 +1,167 @@
+"""How `mavhelm sim --model motorboat` brakes under its autopilot, against the real SITL.
+
+The script (tests/braking.py): armed in GUIDED, drive straight at 1.6 m/s, then at 4 m/s, with
+a refreshed SET_POSITION_TARGET_LOCAL_NED velocity, and stop each way ArduPilot stops a boat:
+
+- ``timeout``: the target is no longer refreshed; after 3 s "target not received last 3secs,
+  stopping" and the boat loiters at its stopping point (ModeGuided::update → start_loiter →
+  ModeLoiter: the desired speed slews to zero at ATC_DECEL_MAX/ATC_ACCEL_MAX, 1 m/s², and the
+  speed controller follows it with reverse thrust, AR_AttitudeControl::get_throttle_out_stop),
+- ``hold``: HOLD (ModeHold::update: throttle and steering zero; the hull coasts).
+
+The sim-only test always runs: the simulator (stock ``--defaults rover.parm,motorboat.parm``,
+calm, with ArduPilot's own controller gains, braking.ARDUPILOT_GAINS) must give the real SITL's
+figures, written below as constants. The differential test runs
+the real binary (``--speedup 10``, about 13 s of wall time; skipped without MAVHELM_ARDUPILOT)
+and the simulator through the same script and compares them. Times are autopilot seconds.
+Run with -s to see the table.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+from braking import (
+    ARDUPILOT_GAINS,
+    CALM,
+    CASES,
+    HOME,
+    RealBrakeSide,
+    SimBrakeSide,
+    figures,
+    label,
+    print_table,
+    sim_rig,
+    write_stock_parms,
+)
+from braking import run_braking as _run
+
+# The real ArduRover 4.8-dev SITL (../shared/ardupilot/ardurover, --model motorboat, --defaults
+# rover.parm,motorboat.parm + SIM_WIND_SPD 0, SIM_WAVE_ENABLE 0, --speedup 10), measured with
+# this script (benchmarks/bench_braking.py); two runs agreed within 0.05 m/s and 0.06 s. Speeds
+# from SIMSTATE positions; times from the time-out text or the HOLD command. (HOLD's throttle
+# reaches 1500 µs 0.2 s after the command from 4 m/s, slewed by MOT_SLEWRATE 100 %/s; the
+# simulator's outputs are not slewed, so that time is not compared.)
+REAL: dict[str, dict[str, float]] = {
+    "timeout from 1.6 m/s": {
+        "speed 1 s after m/s": 0.64, "t to 0.3 m/s s": 1.26, "t to < 0.1 m/s s": 1.36,
+        "t to stay |v| < 0.1 s": 2.70, "least speed m/s": -0.41,
+        "min throttle servo us": 1473},
+    "hold from 1.6 m/s": {
+        "speed 1 s after m/s": 1.18, "speed 3 s after m/s": 0.72,
+        "min throttle servo us": 1500},
+    "timeout from 4 m/s": {
+        "speed 1 s after m/s": 3.19, "speed 3 s after m/s": 0.93, "t to 0.3 m/s s": 3.56,
+        "t to < 0.1 m/s s": 3.76, "t to stay |v| < 0.1 s": 5.10, "least speed m/s": -0.37,
+        "min throttle servo us": 1478},
+    "hold from 4 m/s": {
+        "speed 1 s after m/s": 2.11, "speed 3 s after m/s": 1.04,
+        "min throttle servo us": 1500},
+}
+
+# Tolerances: speeds within 0.15 m/s and stop times within 20 %, except where noted.
+SPEED_TOL = 0.15
+TIME_REL_TOL = 0.20
+SERVO_TOL = 12.0            # µs of the least throttle output (1 % throttle is 5 µs)
+# The simulator's EKF stand-in holds each 5 Hz GPS velocity for 0.2 s where the real EKF's
+# velocity is IMU-propagated: while braking at ~1.3 m/s² it reads ~0.13 m/s fast, so its speed
+# controller brakes a little harder and the boat is 0.17-0.23 m/s slower 1 s into a time-out
+# stop (0.08-0.11 m/s with a lag-free velocity). Allowed here until the estimator is fixed.
+EKF_LAG_SPEED_TOL = 0.30
+# The real throttle output is slewed at MOT_SLEWRATE 100 %/s (AP_MotorsUGV), so in HOLD from
+# 4 m/s it takes 0.2 s to reach 1500 µs; the simulator's outputs are not slewed and the hull
+# coasts 0.1-0.16 m/s slower 1 s later. Allowed here until the outputs are slewed.
+SLEW_SPEED_TOL = 0.20
+
+
+def _tolerance(key: str, real: float, stop_label: str) -> float:
+    if key.startswith("t to"):
+        return TIME_REL_TOL * real
+    if key.startswith("min throttle"):
+        return SERVO_TOL
+    if stop_label.startswith("timeout") and key.startswith("speed"):
+        return EKF_LAG_SPEED_TOL
+    if stop_label.startswith("hold") and key == "speed 1 s after m/s":
+        return SLEW_SPEED_TOL
+    return SPEED_TOL
+
+
+def _check(stops, reference: dict[str, dict[str, float]]) -> list[str]:
+    bad = []
+    for stop in stops:
+        got = figures(stop)
+        for key, want in reference[label(stop)].items():
+            tol = _tolerance(key, want, label(stop))
+            if not abs(got[key] - want) <= tol:
+                bad.append(f"{label(stop)}: {key} {got[key]:.2f}, real {want:.2f} (±{tol:.2f})")
+    return bad
+
+
+def _sim_stops(params_dir: Path):
+    rig = sim_rig(params_dir, **ARDUPILOT_GAINS)
+    try:
+        return _run(SimBrakeSide(rig))
+    finally:
+        rig.close()
+
+
+@pytest.fixture(scope="module")
+def sim_stops(tmp_path_factory):
+    t0 = time.monotonic()
+    stops = _sim_stops(write_stock_parms(tmp_path_factory.mktemp("parm")))
+    print(f"\nmavhelm sim braking script: {time.monotonic() - t0:.1f} s wall")
+    return stops
+
+
+def test_sim_brakes_as_the_real_sitl_measured(sim_stops) -> None:
+    """The real SITL's figures (constants above), held by the simulator without the binary."""
+    print_table(None, sim_stops)
+    assert [label(s) for s in sim_stops] == list(REAL)
+    bad = _check(sim_stops, REAL)
+    assert not bad, "\n".join(bad)
+
+
+def test_timeout_stop_is_reverse_thrust_then_released(sim_stops) -> None:
+    """ArduPilot's controlled stop: reverse thrust while the desired speed slews down, the
+    throttle released (exactly 1500 µs) once stopped, and the boat then stays stopped."""
+    for stop in (s for s in sim_stops if s.how == "timeout"):
+        after = [pwm for t, pwm in stop.servos if t >= stop.t0]
+        assert min(after) < 1490, label(stop)
+        tail = [pwm for t, pwm in stop.servos if t >= stop.t0 + 6.0]
+        assert tail and all(pwm == 1500 for pwm in tail), label(stop)
+        f = figures(stop)
+        assert f["t to stay |v| < 0.1 s"] < 6.0, label(stop)
+        # as the real boat, it runs a little astern before the controller settles (the
+        # integrator wound up braking keeps pulling until the stop is declared)
+        assert -0.7 < f["least speed m/s"] < -0.1, label(stop)
+
+
+def test_hold_only_releases_the_throttle(sim_stops) -> None:
+    """HOLD sets throttle and steering to zero: no reverse thrust, the hull coasts."""
+    for stop in (s for s in sim_stops if s.how == "hold"):
+        after = [pwm for t, pwm in stop.servos if t >= stop.t0 + 0.3]
+        assert after and all(pwm == 1500 for pwm in after), label(stop)
+        assert figures(stop)["speed 3 s after m/s"] > 0.5
+
+
+@pytest.mark.slow
+def test_sim_brakes_as_the_real_sitl(real_sitl, sim_stops) -> None:
+    """The real binary and the simulator through the same script: figures within tolerance."""
+    t0 = time.monotonic()
+    sitl = real_sitl(model="motorboat", speedup=10, home=HOME, params=CALM)
+    side = RealBrakeSide(sitl)
+    try:
+        real = _run(side, CASES)
+    finally:
+        side.close()
+    print(f"\nreal ArduPilot SITL braking script: {time.monotonic() - t0:.1f} s wall")
+    print_table(real, sim_stops)
+    measured = {label(s): {k: v for k, v in figures(s).items() if k in REAL[label(s)]}
+                for s in real}
+    bad = _check(sim_stops, measured)
+    assert not bad, "\n".join(bad)
+    # and the real SITL still gives the figures pinned above
+    drift = _check(real, REAL)
+    assert not drift, "the real SITL no longer gives the pinned figures:\n" + "\n".join(drift)
