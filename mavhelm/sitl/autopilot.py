@@ -115,7 +115,7 @@ class Timeline:
         """A time on the normal (measured) timeline moved onto this one, piecewise linearly
         between the milestones, so the boot texts keep their order and place when the start-up
         is compressed."""
-        src, dst = Timeline().milestones(), self.milestones()
+        src, dst = _MEASURED_MILESTONES, self.milestones()
         for i in range(1, len(src)):
             if t_normal <= src[i] or i == len(src) - 1:
                 a0, a1, b0, b1 = src[i - 1], src[i], dst[i - 1], dst[i]
@@ -123,6 +123,9 @@ class Timeline:
                     return b1
                 return b0 + (t_normal - a0) * (b1 - b0) / (a1 - a0)
         return t_normal
+
+
+_MEASURED_MILESTONES = Timeline().milestones()
 
 
 @dataclass
@@ -498,8 +501,9 @@ class Autopilot:
         return self.motors.servo_map()
 
     def invalidate(self) -> None:
-        """Parameters changed: drop cached derived values."""
+        """Parameters changed: drop cached derived values (servo map, RC channels)."""
         self.motors.invalidate()
+        self.rc.invalidate()
 
     def servo_outputs(self) -> list[int]:
         """SERVO_OUTPUT_RAW values for outputs 1..16."""

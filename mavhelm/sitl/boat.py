@@ -18,9 +18,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
-from functools import lru_cache
-from typing import Any
+from dataclasses import dataclass, fields
+from typing import Any, NamedTuple
 
 from mavhelm.sitl.truth import Truth
 
@@ -47,8 +46,9 @@ class BoatParams:
     leeway: float = 0.03  # drift speed as a fraction of wind speed
 
 
-@dataclass(frozen=True)
-class BoatState:
+class BoatState(NamedTuple):
+    """The hull's state (immutable; a NamedTuple, as one is made every physics step)."""
+
     x: float = 0.0  # m east
     y: float = 0.0  # m north
     heading: float = 0.0  # rad clockwise from north
@@ -72,14 +72,9 @@ class Environment:
 
     def drift(self, leeway: float) -> tuple[float, float]:
         """Earth-frame (east, north) velocity added to the hull by current and wind."""
-        return _drift(self, leeway)
-
-
-@lru_cache(maxsize=64)
-def _drift(env: Environment, leeway: float) -> tuple[float, float]:
-    to = math.radians(env.wind_from + 180.0)
-    w = leeway * env.wind_speed
-    return (env.current_east + w * math.sin(to), env.current_north + w * math.cos(to))
+        to = math.radians(self.wind_from + 180.0)
+        w = leeway * self.wind_speed
+        return (self.current_east + w * math.sin(to), self.current_north + w * math.cos(to))
 
 
 def thruster_force(cmd: float, p: BoatParams) -> float:
@@ -262,7 +257,7 @@ def sitl_step(state: BoatState, inputs: tuple[float, float], env: SimEnvironment
     moved = BoatState(state.x + ve * dt, state.y + vn * dt, heading, u2, 0.0, r,
                       state.roll, state.pitch, state.wave_phase)
     roll, pitch, phase = _wave_angle(moved, env, dt, ve, vn, p.wave_gain)
-    return replace(moved, roll=roll, pitch=pitch, wave_phase=phase)
+    return moved._replace(roll=roll, pitch=pitch, wave_phase=phase)
 
 
 def sitl_truth(state: BoatState, t: float, env: SimEnvironment,

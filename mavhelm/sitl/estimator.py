@@ -74,6 +74,7 @@ class Estimator:
         self.gps_period = gps_period
         self.rng = rng
         self.timeline = timeline
+        self._detected_at = timeline.map(GPS_DETECTED_AT)  # s after boot, on this timeline
         self.faults: FaultSource = faults or _no_faults
         self.named_rng: RngSource = named_rng or _no_named_rng
         self.next_gps = boot
@@ -123,11 +124,15 @@ class Estimator:
         tau, sigma = GPS_WANDER_TAU, noise
         k = self.gps_period / tau
         bias = self.bias
+        # the sample's four standard normal draws in one call (the same numbers as one at a
+        # time): two steps of the walk, then the white noise east and north. Kept as Python
+        # floats: numpy scalars would make every later sum with a position slow.
+        z = rng.normal(0.0, 1.0, 4).tolist()
         for i in range(2):
-            bias[i] += -k * bias[i] + sigma * math.sqrt(2 * k) * rng.normal()
-        white = rng.normal(0.0, 1.0, 2) * (sigma / 8.0)
+            bias[i] += -k * bias[i] + sigma * math.sqrt(2 * k) * z[i]
+        white = (z[2] * (sigma / 8.0), z[3] * (sigma / 8.0))
         fix_at = self.timeline.gps_fix
-        if up < self.timeline.map(GPS_DETECTED_AT):
+        if up < self._detected_at:
             self.gps = None  # not yet detected
             self.has_fix = False
             return True
@@ -186,17 +191,16 @@ class Estimator:
             self.last_fix_t = g.t
         up = t - self.boot
         using_gps = up >= self.timeline.ekf_gps
-        h = math.radians(est.heading)
-        if sway is not None:
-            dr_vx = surge * math.sin(h) + sway * math.cos(h)
-            dr_vy = surge * math.cos(h) - sway * math.sin(h)
-        else:
-            dr_vx, dr_vy = surge * math.sin(h), surge * math.cos(h)
         recent = self.last_fix_t is not None and t - self.last_fix_t < VEL_FRESH
         if recent and g is not None:
             est.vx, est.vy = g.vx, g.vy
-        else:
-            est.vx, est.vy = dr_vx, dr_vy
+        else:  # dead reckoning along the believed heading
+            h = math.radians(est.heading)
+            if sway is not None:
+                est.vx = surge * math.sin(h) + sway * math.cos(h)
+                est.vy = surge * math.cos(h) - sway * math.sin(h)
+            else:
+                est.vx, est.vy = surge * math.sin(h), surge * math.cos(h)
         if not have_origin:
             # before the origin the EKF sits at the first fix (const-position mode)
             if g is not None and g.fix >= 3:

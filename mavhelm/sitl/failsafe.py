@@ -40,15 +40,17 @@ class Failsafe:
             on = False
         else:
             on = now - self.gcs_last_seen > self.ap.params.get("FS_GCS_TIMEOUT", 5.0)
-        old = self.bits
-        self.bits = 1 if on else 0
-        if old == 0 and self.bits:
+        if not on:
+            self.bits = 0
+            if self.triggered:
+                self.ap.text(SEVERITY_INFO, "GCS Failsafe Cleared")
+                self.triggered = 0
+            return
+        if not self.bits:
+            self.bits = 1
             self.start = now
-        if self.triggered and not self.bits:
-            self.ap.text(SEVERITY_INFO, "GCS Failsafe Cleared")
-        self.triggered &= self.bits
         in_hold_ok = self.ap.mode != HOLD or int(self.ap.params.get("FS_OPTIONS", 0)) & 1
-        if (not self.triggered and self.bits
+        if (not self.triggered
                 and now - self.start > self.ap.params.get("FS_TIMEOUT", 1.5)
                 and self.ap.mode != RTL and in_hold_ok):
             self.triggered = self.bits

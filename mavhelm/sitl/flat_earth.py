@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 _A = 6378137.0
 _E2 = 6.69437999014e-3
@@ -20,8 +21,9 @@ class Origin:
     lat: float
     lon: float
 
-    @property
+    @cached_property
     def _radii(self) -> tuple[float, float]:
+        """(meridian, east) radii at the origin: worked out once, every conversion needs them."""
         s = math.sin(math.radians(self.lat))
         w = math.sqrt(1.0 - _E2 * s * s)
         meridian = _A * (1.0 - _E2) / (w**3)

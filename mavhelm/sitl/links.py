@@ -12,6 +12,8 @@ Link faults (link_drop, link_stall, link_garbage, link_duplicate, link_reorder) 
 from __future__ import annotations
 
 import errno
+import heapq
+import select
 import socket
 from collections import Counter
 from collections.abc import Iterable, Sequence
@@ -20,18 +22,6 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 LINK_FAULTS = ("link_drop", "link_stall", "link_garbage", "link_duplicate", "link_reorder")
-
-
-class _Capture:
-    """File-like sink for pymavlink's encoder: collects packets."""
-
-    __slots__ = ("packets",)
-
-    def __init__(self) -> None:
-        self.packets: list[bytes] = []
-
-    def write(self, buf: bytes) -> None:
-        self.packets.append(bytes(buf))
 
 
 class Link:
@@ -48,8 +38,8 @@ class Link:
         self.bytes_received = 0
         self.received: Counter[str] = Counter()  # message types decoded from this peer
         self.closed = False
-        self._capture = _Capture()
-        self.mav = mavlink.MAVLink(self._capture, srcSystem=srcSystem, srcComponent=srcComponent)
+        # the encoder writes each packet it packs straight into write() below
+        self.mav = mavlink.MAVLink(self, srcSystem=srcSystem, srcComponent=srcComponent)
         self.parser = mavlink.MAVLink(None, srcSystem=srcSystem, srcComponent=srcComponent)
         self.parser.robust_parsing = True
         self._out = bytearray()  # bytes accepted for sending, not yet written (TCP)
@@ -62,6 +52,8 @@ class Link:
         self.order: dict[int, int] = {}
         self.next_any = 0.0  # earliest next_due of any scheduled message
         self._schedule: list[int] | None = None
+        self._position: dict[int, int] = {}  # msgid → index in the schedule
+        self._queue_due: list[tuple[float, int]] | None = None  # heap of (next_due, msgid)
         self.systems_seen: set[tuple[int, int]] = set()  # (sysid, compid) heard here
         self.scenario = scenario
         # one random stream per connection: port index and how many came before on that port
@@ -78,13 +70,38 @@ class Link:
         else:
             self.next_due.pop(msgid, None)
         self._schedule = None
+        self._queue_due = None
 
     def schedule(self) -> list[int]:
         """Message ids currently streamed, in emission order."""
         if self._schedule is None:
             self._schedule = sorted((m for m, iv in self.intervals.items() if iv > 0),
                                     key=lambda m: (self.order.get(m, 1000), m))
+            self._position = {m: i for i, m in enumerate(self._schedule)}
         return self._schedule
+
+    def take_due(self, now: float, limit: float) -> list[int]:
+        """The streamed ids due by ``limit``, in emission order, each moved on by its interval
+        (from now if it fell a whole interval behind: late messages are not replayed). A heap
+        of due times finds them without looking at every stream each step."""
+        if self.next_any > limit:
+            return []
+        due, heap = self.next_due, self._queue_due
+        if heap is None:
+            heap = self._queue_due = [(t, m) for m, t in due.items()]
+            heapq.heapify(heap)
+        ready = []
+        while heap and heap[0][0] <= limit:
+            ready.append(heapq.heappop(heap)[1])
+        self.schedule()
+        ready.sort(key=self._position.__getitem__)
+        for mid in ready:
+            interval = self.intervals[mid]
+            nxt = due[mid] + interval
+            t = due[mid] = nxt if nxt > limit else now + interval
+            heapq.heappush(heap, (t, mid))
+        self.next_any = heap[0][0] if heap else 1e300
+        return ready
 
     # ------------------------------------------------------------------ faults
     def update_faults(self, now: float) -> None:
@@ -115,10 +132,31 @@ class Link:
     def send(self, msg: Any) -> None:
         """Encode with this link's sequence numbers and queue for the socket."""
         self.mav.send(msg)
-        packets = self._capture.packets
-        for pkt in packets:
-            self.send_raw(pkt)
-        packets.clear()
+
+    def send_again(self, msg: Any) -> None:
+        """Send msg, unchanged since it was last packed (on any link): that packet with this
+        link's sequence number and checksum, the same bytes as packing it anew, so a stream
+        message due on several links, or one that never changes, is packed once. Packs it
+        (send()) unless that packet is an unsigned MAVLink 2 one from this link's source."""
+        mav = self.mav
+        pkt = bytearray(msg.get_msgbuf())
+        if (len(pkt) < 12 or pkt[0] != mavlink.PROTOCOL_MARKER_V2 or pkt[2] != 0
+                or mav.signing.sign_outgoing
+                or (pkt[5], pkt[6]) != (mav.srcSystem, mav.srcComponent)):
+            self.send(msg)
+            return
+        pkt[4] = mav.seq
+        crc = mavlink.x25crc(pkt[1:-2])
+        crc.accumulate(bytes((msg.crc_extra,)))
+        pkt[-2:] = crc.crc.to_bytes(2, "little")
+        mav.seq = (mav.seq + 1) % 256
+        mav.total_packets_sent += 1
+        mav.total_bytes_sent += len(pkt)
+        self.send_raw(bytes(pkt))
+
+    def write(self, buf: bytes) -> None:
+        """The file side of the link's encoder: one packed packet, queued as send_raw does."""
+        self.send_raw(bytes(buf))
 
     def send_raw(self, pkt: bytes) -> None:
         """Queue an already-encoded packet (forwarding), through the link faults."""
@@ -222,10 +260,11 @@ class Link:
                 got = self.parser.parse_buffer(data)
             except Exception:  # noqa: BLE001 - a corrupt stream must never stop the simulator
                 got = None
-            if got:
-                good = [m for m in got if m.get_type() != "BAD_DATA"]
-                self.received.update(m.get_type() for m in good)
-                msgs.extend(good)
+            for m in got or ():
+                kind = m.get_type()
+                if kind != "BAD_DATA":
+                    self.received[kind] += 1
+                    msgs.append(m)
         return msgs
 
     def close(self) -> None:
@@ -251,6 +290,7 @@ class LinkHub:
         self.new_links: list[Link] = []
         self._accepted: dict[int, int] = {}
         self.host = host
+        self._listening = select.poll()  # the servers, for accept()
         for port in ports:
             self.listen(port)
         for j, (uhost, uport) in enumerate(udp_out):
@@ -273,6 +313,7 @@ class LinkHub:
             raise
         s.setblocking(False)
         self.servers.append(s)
+        self._listening.register(s, select.POLLIN)
         self.ports.append(s.getsockname()[1])
         return self.ports[-1]
 
@@ -288,8 +329,14 @@ class LinkHub:
         self.new_links.append(link)
 
     def accept(self) -> None:
-        """Take every pending TCP connection."""
+        """Take every pending TCP connection. Asked every step, so one poll() over the
+        listening ports says which have any first (cheaper than an accept() refused on each)."""
+        ready = {fd for fd, _ in self._listening.poll(0)}
+        if not ready:
+            return
         for i, s in enumerate(self.servers):
+            if s.fileno() not in ready:
+                continue
             while True:
                 try:
                     c, peer = s.accept()
@@ -310,6 +357,7 @@ class LinkHub:
         for lk in self.links:
             lk.close()
         for s in self.servers:
+            self._listening.unregister(s)
             try:
                 s.close()
             except OSError:

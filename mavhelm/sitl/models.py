@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any, NamedTuple
 
 from mavhelm.sitl import boat, rover
@@ -187,13 +186,22 @@ def get_model(name: str) -> VehicleModel:
 # ---------------------------------------------------------------------------------------------
 
 
-@lru_cache(maxsize=64)
+_last_legacy: tuple[SimEnvironment, boat.Environment] | None = None
+
+
 def legacy_environment(env: SimEnvironment) -> boat.Environment:
-    """mavhelm's environment for its own hulls, from the same parameter table."""
-    cs, cd = env.SIM_CURRENT_SPD, math.radians(env.SIM_CURRENT_DIR)
-    return boat.Environment(current_east=cs * math.sin(cd), current_north=cs * math.cos(cd),
-                            wind_speed=env.SIM_WIND_SPD, wind_from=env.SIM_WIND_DIR,
-                            water_depth=env.SIM_DEPTH)
+    """mavhelm's environment for its own hulls, from the same parameter table. Asked for
+    several times a physics step with the same (immutable) environment, so the last answer
+    is kept (by identity: cheaper than hashing the environment)."""
+    global _last_legacy
+    last = _last_legacy
+    if last is None or last[0] is not env:
+        cs, cd = env.SIM_CURRENT_SPD, math.radians(env.SIM_CURRENT_DIR)
+        legacy = boat.Environment(current_east=cs * math.sin(cd),
+                                  current_north=cs * math.cos(cd), wind_speed=env.SIM_WIND_SPD,
+                                  wind_from=env.SIM_WIND_DIR, water_depth=env.SIM_DEPTH)
+        last = _last_legacy = (env, legacy)
+    return last[1]
 
 
 def _by_function(skid: bool) -> Callable[[Sequence[int], ServoMap], tuple[float, float]]:

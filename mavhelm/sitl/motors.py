@@ -24,6 +24,8 @@ from mavhelm.sitl.mavlink_defs import (
 )
 
 ServoMapRow = tuple[int, int, float, float, float, bool]
+# where each motor function's demand sits in mix()'s (steering, throttle, left, right)
+_MIX_INDEX = {FN_STEERING: 0, FN_THROTTLE: 1, FN_THROTTLE_LEFT: 2, FN_THROTTLE_RIGHT: 3}
 
 
 class MotorsUGV:
@@ -37,6 +39,8 @@ class MotorsUGV:
         self.text = text  # a STATUSTEXT for every link
         self.servo_override: dict[int, int] = {}  # DO_SET_SERVO outputs (1-based)
         self._servo_map: list[ServoMapRow] | None = None
+        # servo_map() as outputs() reads it: (output index, mix index, min, max, trim, reversed)
+        self._rows: list[tuple[int, int, float, float, float, bool]] | None = None
 
     def do_set_servo(self, channel: int, pwm: int) -> int:
         """MAV_CMD_DO_SET_SERVO: refused on outputs that already have a function."""
@@ -84,16 +88,19 @@ class MotorsUGV:
     def invalidate(self) -> None:
         """Parameters changed: drop the cached servo map."""
         self._servo_map = None
+        self._rows = None
 
     def outputs(self, steering: float, throttle: float, armed: bool) -> list[int]:
         """SERVO_OUTPUT_RAW values for outputs 1..16."""
-        steer, thr, left, right = self.mix(steering, throttle, armed)
-        value = {FN_STEERING: steer, FN_THROTTLE: thr, FN_THROTTLE_LEFT: left,
-                 FN_THROTTLE_RIGHT: right}
+        value = self.mix(steering, throttle, armed)
         out = [0] * 16
         for ch, pwm in self.servo_override.items():
             out[ch - 1] = pwm
-        for ch, fn, lo, hi, trim, rev in self.servo_map():
-            v = -value[fn] if rev else value[fn]
-            out[ch - 1] = int(round(trim + v * (hi - trim if v >= 0 else trim - lo)))
+        rows = self._rows
+        if rows is None:
+            rows = self._rows = [(ch - 1, _MIX_INDEX[fn], lo, hi, trim, rev)
+                                 for ch, fn, lo, hi, trim, rev in self.servo_map()]
+        for i, k, lo, hi, trim, rev in rows:
+            v = -value[k] if rev else value[k]
+            out[i] = int(round(trim + v * (hi - trim if v >= 0 else trim - lo)))
         return out

@@ -9,7 +9,8 @@ ArduPilot's SITL rover, matched to the real SITL (docs/sim-vehicles.md).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from typing import NamedTuple
 
 from mavhelm.sitl.boat import Environment
 from mavhelm.sitl.truth import Truth
@@ -32,8 +33,9 @@ class RoverParams:
     turning_circle: float | None = None
 
 
-@dataclass(frozen=True)
-class RoverState:
+class RoverState(NamedTuple):
+    """The rover's state (immutable; a NamedTuple, as one is made every physics step)."""
+
     x: float = 0.0
     y: float = 0.0
     heading: float = 0.0  # rad clockwise from north
@@ -80,9 +82,9 @@ def step(state: RoverState, inputs: tuple[float, float], env: Environment, dt: f
     r = max(-p.max_turn_rate, min(p.max_turn_rate, r))
     h = state.heading + 0.5 * (state.r + r) * dt
     v = 0.5 * (state.speed + speed)
-    return replace(state, x=state.x + v * math.sin(h) * dt, y=state.y + v * math.cos(h) * dt,
-                   heading=h % (2 * math.pi), speed=speed, steer=steer, r=r,
-                   odometer=state.odometer + v * dt)
+    return RoverState(x=state.x + v * math.sin(h) * dt, y=state.y + v * math.cos(h) * dt,
+                      heading=h % (2 * math.pi), speed=speed, steer=steer, r=r,
+                      odometer=state.odometer + v * dt)
 
 
 def truth(state: RoverState, t: float, env: Environment, p: RoverParams = RoverParams()) -> Truth:

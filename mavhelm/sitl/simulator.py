@@ -320,28 +320,19 @@ class Simulator:
                 for seq, raw in parts]
 
     def _emit_streams(self, now: float) -> None:
+        """Send every stream message due on each link, each built at most once a step (and
+        packed once: send_again only renumbers the packet for the next link)."""
         cache: dict[int, Any] = {}
         limit = now + 1e-9
         build, truth, wheels = self.telemetry.build, self.truth, self._wheels
         for link in self.hub.links:
-            if link.next_any > limit:
-                continue
-            due = link.next_due
-            iv = link.intervals
-            for mid in link.schedule():
-                t_due = due[mid]
-                if t_due > limit:
-                    continue
-                interval = iv[mid]
-                nxt = t_due + interval
-                due[mid] = nxt if nxt > limit else now + interval
+            for mid in link.take_due(now, limit):
                 msg = cache.get(mid)
                 if msg is None:
                     msg = build(mid, now, truth, wheels)
                     cache[mid] = msg if msg is not None else False
                 if msg:
-                    link.send(msg)
-            link.next_any = min(due[m] for m in link.schedule()) if link.schedule() else 1e300
+                    link.send_again(msg)
 
     # ------------------------------------------------------------------ for the MAVLink front
     def build(self, mid: int, now: float) -> Any:

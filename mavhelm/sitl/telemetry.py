@@ -4,7 +4,8 @@
 ArduPilot Rover would send it at ``now`` (or None when Rover has nothing to say yet, e.g.
 LOCAL_POSITION_NED before the EKF origin). It reads the autopilot (modes, estimate, servo
 outputs), the estimator (GPS fix, EKF status) and the true state; it sends nothing and keeps no
-state of its own, so which messages go out when stays with the simulator's stream scheduling.
+state of its own (but for the few messages that never change, built once), so which messages go
+out when stays with the simulator's stream scheduling.
 """
 
 from __future__ import annotations
@@ -69,6 +70,7 @@ class Telemetry:
         self.boot = boot
         self.epoch = epoch
         self.mav_type = mav_type  # HEARTBEAT type: the vehicle model's
+        self._constant: dict[int, Any] = {}  # the CONSTANT messages, built once
 
     def boot_ms(self, now: float) -> int:
         """Milliseconds since boot, wrapped to uint32 like time_boot_ms."""
@@ -85,8 +87,16 @@ class Telemetry:
 
         truth is the vehicle's true state (SIMSTATE, IMU, depth) and wheels the two wheel
         odometers in m (WHEEL_DISTANCE)."""
+        msg = self._constant.get(mid)
+        if msg is not None:
+            return msg
         builder = BUILDERS.get(mid)
-        return None if builder is None else builder(self, now, truth, wheels)
+        if builder is None:
+            return None
+        msg = builder(self, now, truth, wheels)
+        if mid in CONSTANT:
+            self._constant[mid] = msg
+        return msg
 
     # ------------------------------------------------------------------ one builder a message
     def _heartbeat(self, _now: float, _tr: Truth, _wheels: list[float]) -> Any:
@@ -373,3 +383,10 @@ BUILDERS: dict[int, Callable[[Telemetry, float, Truth, list[float]], Any]] = {
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: Telemetry._autopilot_version,
     M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: Telemetry._position_target_global_int,
 }
+# Messages whose content never changes: built once and sent again as they are (their packets
+# differ only in sequence number, see links.Link.send_again).
+CONSTANT = frozenset({
+    M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, M.MAVLINK_MSG_ID_AHRS, M.MAVLINK_MSG_ID_POWER_STATUS,
+    M.MAVLINK_MSG_ID_MEMINFO, M.MAVLINK_MSG_ID_MISSION_CURRENT,
+    M.MAVLINK_MSG_ID_BATTERY_STATUS, M.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+})
