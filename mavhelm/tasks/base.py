@@ -20,7 +20,7 @@ Tasks never touch the bus: what they want posted goes into an outbox the helm dr
 from __future__ import annotations
 
 import enum
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 from mavhelm.core.bus import Message
 from mavhelm.core.geodesy import wrap_degrees, yaw_to_heading
@@ -127,6 +127,14 @@ class NavState:
         return self._values.get("NAV_Y")
 
 
+class TaskWatcher(Protocol):
+    """What drains the tasks' outboxes (the helm). Told of each post, so with dozens of idle
+    tasks in a mission it visits only those with something to say; a task changes state only
+    with a post (TASK_STARTED, TASK_ENDED), so it also learns when the running set changes."""
+
+    def task_posted(self, task: Task, name: str) -> None: ...
+
+
 class Task:
     """Base of every helm task; see the module docstring for the hooks."""
 
@@ -175,6 +183,8 @@ class Task:
         self.end_cause: str | None = None
         self.yaw_pid: ScalarPID = self.gains.yaw_pid()
         self._outbox: list[tuple[str, float | str]] = []
+        self.watcher: TaskWatcher | None = None
+        """Who drains the outbox (the helm), told of every post."""
         self._completed = False
         self._holding = False
 
@@ -209,6 +219,8 @@ class Task:
 
     def post(self, name: str, value: float | str) -> None:
         self._outbox.append((name, value))
+        if self.watcher is not None:
+            self.watcher.task_posted(self, name)
 
     def event(self, reason: str) -> None:
         """Something happened that does not end the task: post the EventFlags, and say so
@@ -237,9 +249,6 @@ class Task:
         out, self._outbox = self._outbox, []
         return out
 
-    @property
-    def has_notifications(self) -> bool:
-        return bool(self._outbox)
 
     def listens_to(self) -> set[str]:
         """The variables ``offer`` reacts to (the helm offers only those): the StartFlags."""

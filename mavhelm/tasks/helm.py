@@ -95,6 +95,12 @@ class Helm(App):
         self._rudder_owner: str | None = None
         self._aux_actuators: list[str] = []
         self.last_winners: dict[str, tuple[float, Task]] = {}
+        self._posting: list[Task] = []
+        """Tasks with posts not yet flushed, in the order they first posted."""
+        self._running: list[Task] | None = None
+        """The active tasks in mission order; None when a task has started or ended since."""
+        for task in self.tasks:
+            task.watcher = self
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission) -> Helm:
@@ -154,6 +160,17 @@ class Helm(App):
             self._routes = (key, listeners)
         return self._routes[1]
 
+    def task_posted(self, task: Task, name: str) -> None:
+        if task not in self._posting:
+            self._posting.append(task)
+        if name in ("TASK_STARTED", "TASK_ENDED"):
+            self._running = None
+
+    def _running_tasks(self) -> list[Task]:
+        if self._running is None:
+            self._running = [t for t in self.tasks if t.active]
+        return self._running
+
     def on_mail(self, mail: list[Message], now: float) -> None:
         listeners = self._listeners()
         for msg in mail:
@@ -169,9 +186,8 @@ class Helm(App):
         if self._state_posted != self.online:
             self.notify("HELM_STATE", "ONLINE" if self.online else "OFFLINE")
             if self.online and self.mission_started:
-                for t in self.tasks:
-                    if t.active:
-                        t.resume(now)
+                for t in self._running_tasks():
+                    t.resume(now)
             if not self.online:
                 self._set_rudder_owner("none")
             self._state_posted = self.online
@@ -182,9 +198,8 @@ class Helm(App):
                     t.start(now)
         self._third_party_requests(now)
         if not self.online:
-            for t in self.tasks:
-                if t.active:
-                    t.pause(now)
+            for t in self._running_tasks():
+                t.pause(now)
             self._flush()
             return
         self.last_winners = arbitrate(self._run_tasks(now))
@@ -201,6 +216,7 @@ class Helm(App):
             reply, task, closing = self.third_party.handle(text, closed, now, names)
             self.notify(REPLY_VARIABLE, str(reply))
             if task is not None:
+                task.watcher = self
                 self.tasks.append(task)
                 task.start(now)
             if closing is not None:
@@ -220,7 +236,8 @@ class Helm(App):
         stepped: set[int] = set()
         ballots: list[tuple[Task, Votes]] = []
         while True:
-            todo = [t for t in (self._locked() or self.tasks) if t.active and id(t) not in stepped]
+            todo = [t for t in (self._locked() or self._running_tasks())
+                    if t.active and id(t) not in stepped]
             if not todo:
                 break
             for t in todo:
@@ -243,11 +260,10 @@ class Helm(App):
         return sorted(ballots, key=lambda b: self.tasks.index(b[0]))  # mission order
 
     def _flush(self) -> list[tuple[str, float | str]]:
-        """Post what the tasks queued; return it."""
+        """Post what the tasks queued, task by task in mission order; return it."""
         posted: list[tuple[str, float | str]] = []
-        for t in self.tasks:
-            if not t.has_notifications:
-                continue
+        posting, self._posting = self._posting, []
+        for t in sorted(posting, key=self.tasks.index):
             for name, value in t.take_notifications():
                 self.notify(name, value)
                 posted.append((name, value))
