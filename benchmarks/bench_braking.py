@@ -5,8 +5,9 @@ velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the rea
 (``--model motorboat``, stock ``--defaults``, calm, ``--speedup 10``) and on ``mavhelm sim
 --model motorboat`` with the same files, and prints the figures side by side: speed at the
 stop and 1 s / 3 s after, time to 0.3 m/s and to < 0.1 m/s, time until it stays stopped, the
-astern overshoot, the lowest throttle servo. ``--own-gains`` runs the simulator with its own
-controller gains instead of ArduPilot's compiled-in ones (braking.ARDUPILOT_GAINS).
+astern overshoot, the lowest throttle servo. The simulator's ``--model motorboat`` starts, as the
+real SITL, from ArduPilot's own parameter defaults (autopilot.ARDUPILOT_DEFAULTS) with the files
+on top; ``--own-gains`` runs it with the controller gains tuned to mavhelm's own hulls instead.
 Times are autopilot seconds. Figures only; asserts nothing. Needs MAVHELM_ARDUPILOT (the
 ardurover SITL binary) for the real column; without it, says so, prints the simulator's figures
 and exits 0.
@@ -28,7 +29,6 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary  # noqa: E402
 from braking import (  # noqa: E402  (tests/ is on the path only now)
-    ARDUPILOT_GAINS,
     CALM,
     HOME,
     RealBrakeSide,
@@ -39,20 +39,25 @@ from braking import (  # noqa: E402  (tests/ is on the path only now)
     write_stock_parms,
 )
 
+from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params  # noqa: E402
+
 SPEEDUP = 10
+# the controller terms as autopilot.default_params tunes them to mavhelm's own rudder boat
+OWN_GAINS = {k: v for k, v in default_params(boat=True, skid=False).items()
+             if k in ARDUPILOT_DEFAULTS and k.startswith("ATC_")}
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--own-gains", action="store_true",
-                        help="the simulator's own ATC_ gains, not ArduPilot's defaults")
+                        help="the ATC_ gains of mavhelm's own hulls, not ArduPilot's defaults")
     args = parser.parse_args(argv)
     binary = ardupilot_binary()
     with tempfile.TemporaryDirectory(prefix="mavhelm-bench-braking-") as tmp:
         params_dir = (binary.parent / "params" if binary is not None
                       else write_stock_parms(Path(tmp) / "parm"))
         t = time.monotonic()
-        rig = sim_rig(params_dir, **({} if args.own_gains else ARDUPILOT_GAINS))
+        rig = sim_rig(params_dir, **(OWN_GAINS if args.own_gains else {}))
         try:
             sim = run_braking(SimBrakeSide(rig))
         finally:

@@ -31,14 +31,6 @@ from pymavlink.dialects.v20 import ardupilotmega as M
 
 HOME = (56.4120, -5.4760, 0, 90)
 CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
-# ArduPilot's compiled-in controller defaults (AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_P
-# and _I 0.2, _IMAX 1.0; AR_ATTCONTROL_THR_SPEED_I 0.2, _IMAX 1.0): what the real SITL runs with
-# its stock files, which do not set them. The simulator's own table keeps gains tuned to
-# mavhelm's hulls (docs/sim-differences.md); with those the motorboat's rudder limit-cycles
-# (±2.7° of yaw at 4 m/s where the real holds ±0.06°). Passed explicitly until `--defaults`
-# brings the firmware's defaults for the names the files leave out.
-ARDUPILOT_GAINS = {"ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
-                   "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0}
 # The stock files' lines that matter here (Tools/autotest/default_params of the reference
 # build), for running the simulator where the binary and its params/ are absent.
 ROVER_PARM = ("ATC_SPEED_P 0.1\nATC_STR_RAT_FF 0.75\nCRUISE_SPEED 5\nCRUISE_THROTTLE 30\n"

@@ -58,6 +58,10 @@ class AttitudeControl:
         self._speed_last: float | None = None  # _speed_last_ms
         self._rate_last: float | None = None  # _steer_turn_last_ms
         self._stop_last: float | None = None  # _stop_last_ms (None: not stopped)
+        # AP_MotorsUGV limit.throttle_lower || throttle_upper from the last output (the slew
+        # held the throttle back, it is at MOT_THR_MAX, or disarmed): the speed integrator may
+        # then only shrink (AC_PID::update_i), as get_throttle_out_speed passes it
+        self.motor_limit = False
 
     def reset_pids(self) -> None:
         self.rate_pid.reset()
@@ -141,11 +145,13 @@ class AttitudeControl:
         self.speed_target = speed
         err = speed - est_speed
         pid = self.speed_pid
-        imax = p["ATC_SPEED_IMAX"]
-        pid.integ = clamp(pid.integ + err * p["ATC_SPEED_I"] * dt, -imax, imax)
+        integ = pid.integ
+        if not self.motor_limit or (integ > 0.0 > err) or (integ < 0.0 < err):
+            imax = p["ATC_SPEED_IMAX"]
+            pid.integ = integ = clamp(integ + err * p["ATC_SPEED_I"] * dt, -imax, imax)
         cs = max(p["CRUISE_SPEED"], 0.1)
         ff = speed / cs * p["CRUISE_THROTTLE"] * 0.01
-        thr = ff + err * p["ATC_SPEED_P"] + pid.integ
+        thr = ff + err * p["ATC_SPEED_P"] + integ
         if not p.get("ATC_BRAKE", 1):
             # no reverse thrust to slow down: never against the desired direction
             if speed >= 0 and thr <= 0 or speed <= 0 and thr >= 0:

@@ -146,12 +146,34 @@ class Estimate:
         return self.vx * math.sin(h) + self.vy * math.cos(h)
 
 
-def default_params(boat: bool, skid: bool) -> dict[str, float]:
+# ArduPilot's own (compiled-in) defaults, as the real Rover 4.8-dev SITL answers them when started
+# with an empty --defaults file, for the names of default_params() whose value there differs:
+# the table below is mavhelm's hulls' (rover.parm's navigation values, controller terms tuned to
+# those hulls). AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_FF/P/I 0.2, IMAX 1.0;
+# AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; Rover/Parameters.cpp: CRUISE_SPEED 2,
+# CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. The real SITL answers GPS1_TYPE 0 (its
+# simulated receiver is attached whatever it says). Not here, because the model decides them:
+# FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set them);
+# and RC1_DZ/RC3_DZ, which the real SITL answers as 0 but applies as 30 (Rover's
+# set_default_dead_zone; measured, docs/sim-vehicles.md), so the table keeps 30.
+ARDUPILOT_DEFAULTS: dict[str, float] = {
+    "ATC_STR_RAT_FF": 0.2, "ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
+    "ATC_SPEED_P": 0.2, "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0,
+    "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 50.0, "WP_SPEED": 2.0, "WP_RADIUS": 2.0,
+    "GPS1_TYPE": 0,
+}
+
+
+def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, float]:
     """The parameter table: the names and values the real Rover 4.8-dev SITL answers with its
     stock rover.parm (WP_SPEED 5, CRUISE_SPEED 5, WP_RADIUS 3, ATC_STR_RAT_FF 0.75, ATC_SPEED_P
     0.1), except a few controller terms tuned to the simulator's hulls (docs/sim-differences.md).
     Names are 4.8's: MAV_SYSID (was SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
-    GUID_TIMEOUT."""
+    GUID_TIMEOUT.
+
+    ``firmware``: the same names with ArduPilot's own defaults (ARDUPILOT_DEFAULTS), for the
+    SITL models (``--model``), which run as the real SITL does: the firmware's defaults, then
+    the ``.parm`` files."""
     p: dict[str, float] = {
         "MAV_SYSID": 1, "MAV_GCS_SYSID": 255, "RC_OVERRIDE_TIME": 3.0,
         "WP_SPEED": 5.0, "WP_RADIUS": 3.0, "WP_ACCEL": 0.0, "RTL_SPEED": 0.0,
@@ -171,7 +193,7 @@ def default_params(boat: bool, skid: bool) -> dict[str, float]:
         "ATC_SPEED_P": 0.1, "ATC_SPEED_I": 0.6 if boat else 0.5,
         "ATC_SPEED_IMAX": 0.5,
         "ATC_ACCEL_MAX": 1.0, "ATC_DECEL_MAX": 0.0, "ATC_STOP_SPEED": 0.1,
-        "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5,
+        "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5, "MOT_SLEWRATE": 100.0,
         "GPS1_TYPE": 1, "GPS1_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
     }
     if boat and not skid:  # a rudder needs flow: more gain on the rate error
@@ -195,6 +217,8 @@ def default_params(boat: bool, skid: bool) -> dict[str, float]:
     else:
         p["SERVO1_FUNCTION"] = FN_STEERING
         p["SERVO3_FUNCTION"] = FN_THROTTLE
+    if firmware:
+        p.update(ARDUPILOT_DEFAULTS)
     return p
 
 
@@ -214,14 +238,15 @@ class Autopilot:
 
     def __init__(self, *, boat: bool = True, skid: bool = True, boot_time: float = 0.0,
                  timeline: Timeline | None = None, params: dict[str, float] | None = None,
-                 latlon: Callable[[float, float], tuple[float, float]] | None = None) -> None:
+                 latlon: Callable[[float, float], tuple[float, float]] | None = None,
+                 firmware_defaults: bool = False) -> None:
         self.boat = boat
         # local x, y → (lat, lon) degrees, for the texts that name a place ("Set HOME to ...")
         self.latlon = latlon or (lambda x, y: (0.0, 0.0))
         self.skid = skid
         self.boot_time = boot_time
         self.timeline = timeline or Timeline()
-        self.params = default_params(boat, skid)
+        self.params = default_params(boat, skid, firmware_defaults)
         if params:
             self.params.update({k.upper(): float(v) for k, v in params.items()})
         self.armed = False
@@ -352,14 +377,14 @@ class Autopilot:
         return True
 
     def _switch(self, new: Mode) -> None:
-        """Leave the current mode for ``new`` (already entered): the controllers start afresh
-        from the present speed and turn rate, and every link hears a HEARTBEAT at once."""
+        """Leave the current mode for ``new`` (already entered); every link hears a HEARTBEAT
+        at once. The controllers are not reset (Rover::set_mode and Mode::enter leave them):
+        one unused for 0.2 s restarts by itself on its next call (AttitudeControl), so a mode
+        that takes over within 0.2 s carries on from the desired speed and integrators the
+        last one left, as upstream."""
         self.current._exit()
         self.current = new
         self.out.heartbeat = True
-        self.atc.reset_pids()
-        self.atc.speed_target = self.est.forward_speed
-        self.atc.rate_target = self.est.yaw_rate
 
     # ------------------------------------------------------------------ arming
     def arm(self, arm: bool, now: float, force: bool = False) -> int:
@@ -530,5 +555,17 @@ class Autopilot:
             self.atc.reset_pids()
             # GUIDED targets still time out while disarmed
             self.guided.check_timeout(now)
+            self._output(dt)
             return
         self.current.update(now, dt)
+        self._output(dt)
+
+    def _output(self, dt: float) -> None:
+        """AP_MotorsUGV::output after the mode: the throttle the outputs carry is the demand
+        slew-limited at MOT_SLEWRATE (zero while disarmed), and the motor limits it hit go to
+        the speed controller's next pass."""
+        m = self.motors
+        out = m.output(self.steering, self.throttle, self.armed, dt)
+        if self.armed:
+            self.throttle = out
+        self.atc.motor_limit = m.limit_lower or m.limit_upper

@@ -172,14 +172,18 @@ class Estimator:
     # ------------------------------------------------------------------ EKF stand-in
     def update(self, est: Estimate, t: float, dt: float, *, heading: float, yaw_rate: float,
                surge: float, sway: float | None, compass_bias: float, have_origin: bool,
-               dr_time: float) -> None:
+               dr_time: float, vx: float | None = None, vy: float | None = None) -> None:
         """Advance est to t: GPS-corrected position, dead reckoning without GPS.
 
         heading (rad, true) and yaw_rate (rad/s) come from the vehicle; compass_bias (deg)
         offsets the heading the autopilot believes. surge/sway are body speeds through the
-        water (sway None for a wheeled vehicle, which cannot slip). Before the EKF origin
-        (have_origin) the filter sits on the fix; afterwards it keeps an absolute position
-        for dr_time (SIM_EKF_DR_TIME) seconds after the last fix, then gives up on it.
+        water (sway None for a wheeled vehicle, which cannot slip). vx, vy (m/s east, north)
+        are the vehicle's true ground velocity now: while GPS fixes arrive, the EKF's velocity
+        is the IMU-propagated one, current between the 5 Hz fixes (EKF3's output predictor),
+        so the estimate follows it; without them (None) it holds the latest fix's velocity.
+        Before the EKF origin (have_origin) the filter sits on the fix; afterwards it keeps an
+        absolute position for dr_time (SIM_EKF_DR_TIME) seconds after the last fix, then
+        gives up on it.
         """
         est.yaw_rate = math.degrees(yaw_rate)
         est.heading = (math.degrees(heading) + compass_bias + EKF_YAW_OFFSET_DEG
@@ -193,7 +197,10 @@ class Estimator:
         using_gps = up >= self.timeline.ekf_gps
         recent = self.last_fix_t is not None and t - self.last_fix_t < VEL_FRESH
         if recent and g is not None:
-            est.vx, est.vy = g.vx, g.vy
+            if vx is not None and vy is not None:
+                est.vx, est.vy = vx, vy
+            else:
+                est.vx, est.vy = g.vx, g.vy
         else:  # dead reckoning along the believed heading
             h = math.radians(est.heading)
             if sway is not None:

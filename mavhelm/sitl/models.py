@@ -73,6 +73,9 @@ class VehicleModel:
     _motion: Callable[..., Motion]
     # None: SITL's way, outputs 1 and 3 by position; else (outputs, servo map) → inputs
     _inputs: Callable[[Sequence[int], ServoMap], tuple[float, float]] | None = None
+    # the autopilot's parameters start from ArduPilot's own defaults (the SITL models, as the
+    # real SITL), not from the values tuned to mavhelm's hulls (autopilot.default_params)
+    firmware_defaults: bool = False
 
     @property
     def skid(self) -> bool:
@@ -149,21 +152,22 @@ MODELS: dict[str, VehicleModel] = {
         "motorboat", "boat", MAV_TYPE_SURFACE_BOAT, boat.SitlBoatParams(skid=False),
         ("rover.parm", "motorboat.parm"), (FN_STEERING, FN_THROTTLE),
         lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth,
-        _sitl_boat_motion),
+        _sitl_boat_motion, firmware_defaults=True),
     "motorboat-skid": VehicleModel(
         "motorboat-skid", "boat", MAV_TYPE_SURFACE_BOAT, boat.SitlBoatParams(skid=True),
         ("rover.parm", "motorboat.parm", "rover-skid.parm"),
         (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT),
         lambda h: boat.BoatState(heading=h), boat.sitl_step, boat.sitl_truth,
-        _sitl_boat_motion),
+        _sitl_boat_motion, firmware_defaults=True),
     "rover": VehicleModel(
         "rover", "rover", MAV_TYPE_GROUND_ROVER, SITL_ROVER, ("rover.parm",),
         (FN_STEERING, FN_THROTTLE), lambda h: rover.RoverState(heading=h),
-        _rover_step, _rover_truth, _rover_motion),
+        _rover_step, _rover_truth, _rover_motion, firmware_defaults=True),
     "rover-skid": VehicleModel(
         "rover-skid", "rover", MAV_TYPE_GROUND_ROVER, SITL_ROVER_SKID,
         ("rover.parm", "rover-skid.parm"), (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT),
-        lambda h: rover.RoverState(heading=h), _rover_step, _rover_truth, _rover_motion),
+        lambda h: rover.RoverState(heading=h), _rover_step, _rover_truth, _rover_motion,
+        firmware_defaults=True),
 }
 
 

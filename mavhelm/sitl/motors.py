@@ -1,6 +1,7 @@
 """The outputs (libraries/AR_Motors/AP_MotorsUGV.cpp, SRV_Channel, ServoRelayEvents.cpp):
-steering and throttle demands mixed for a skid vehicle and written as PWM on the outputs whose
-SERVOn_FUNCTION asks for them; DO_SET_SERVO on the outputs no function holds.
+the throttle demand slew-limited at MOT_SLEWRATE, steering and throttle mixed for a skid vehicle
+and written as PWM on the outputs whose SERVOn_FUNCTION asks for them; DO_SET_SERVO on the
+outputs no function holds.
 
 Apart from the autopilot because it is what the physics reads: the vehicle moves only by the
 PWM written here, as SITL's frames move only by the servo outputs."""
@@ -41,6 +42,43 @@ class MotorsUGV:
         self._servo_map: list[ServoMapRow] | None = None
         # servo_map() as outputs() reads it: (output index, mix index, min, max, trim, reversed)
         self._rows: list[tuple[int, int, float, float, float, bool]] | None = None
+        self.throttle_prev = 0.0  # _throttle_prev: the last slew-limited throttle, -1..1
+        # limit.throttle_lower/upper of the last output() (the speed controller's I-term stops
+        # growing while either is set: AR_AttitudeControl::get_throttle_out_speed)
+        self.limit_lower = True
+        self.limit_upper = True
+
+    def slew_limited(self, throttle: float, dt: float) -> float:
+        """AP_MotorsUGV::get_slew_limited_throttle: ``throttle`` (-1..1) moved no further from
+        the last output than MOT_SLEWRATE (%/s of the -100..100 range; 0: no limit) allows in
+        dt. Stores nothing (MANUAL asks it to see whether the output will change direction)."""
+        rate = self.params.get("MOT_SLEWRATE", 100.0)
+        if rate <= 0:
+            return throttle
+        step = rate * 0.01 * dt
+        prev = self.throttle_prev
+        return clamp(throttle, prev - step, prev + step)
+
+    def output(self, steering: float, throttle: float, armed: bool, dt: float) -> float:
+        """The throttle path of AP_MotorsUGV::output, once a control-loop pass, every mode
+        (MANUAL too): disarmed the demand is zero; it is held within MOT_THR_MAX (set_throttle)
+        and slew-limited at MOT_SLEWRATE. Returns the throttle the outputs carry and sets the
+        limit flags the speed controller reads next pass: throttle_upper/lower when the slew
+        held it back, when it is at ±MOT_THR_MAX, when skid mixing cut it, and both while
+        disarmed (set_limits_from_input)."""
+        tmax = clamp(self.params.get("MOT_THR_MAX", 100.0), 5.0, 100.0) * 0.01
+        demand = clamp(throttle, -tmax, tmax) if armed else 0.0
+        out = self.slew_limited(demand, dt)
+        self.throttle_prev = out
+        lower = out > demand or out <= -tmax or not armed
+        upper = out < demand or out >= tmax or not armed
+        if self.skid and armed and abs(steering) + abs(out) > 1.0:
+            thr = self.mix(steering, out, True)[1]
+            if abs(thr) < abs(out):
+                lower = lower or out < 0
+                upper = upper or out > 0
+        self.limit_lower, self.limit_upper = lower, upper
+        return out
 
     def do_set_servo(self, channel: int, pwm: int) -> int:
         """MAV_CMD_DO_SET_SERVO: refused on outputs that already have a function."""

@@ -56,6 +56,10 @@ SIM_PARAMS: dict[str, float] = {
     "SIM_GPS_NOISE": 0.4, "SIM_EKF_DR_TIME": 10.0,
 }
 
+# SIM_PARAMS values that are not the firmware's own default (SIM_WIND_T: ArduPilot's is 0, the
+# table has motorboat.parm's 1): what the SITL models (--model) start from, as the real SITL.
+SIM_FIRMWARE_DEFAULTS: dict[str, float] = {"SIM_WIND_T": 0.0}
+
 # AC_Fence parameters with Rover's defaults: FENCE_TYPE 6 = circle + polygon, not enabled.
 FENCE_PARAMS = {"FENCE_ENABLE": 0.0, "FENCE_TYPE": 6.0, "FENCE_ACTION": 1.0,
                 "FENCE_RADIUS": 300.0, "FENCE_MARGIN": 2.0}
@@ -85,7 +89,9 @@ class Simulator:
         registry. ``defaults``: ArduPilot ``.parm`` files (a comma-separated string or paths,
         or already read), read leniently as the firmware does and applied over the parameter
         table (names the table lacks are added: the real firmware has them); ``params`` are
-        applied after them."""
+        applied after them. The table a SITL model starts from holds ArduPilot's own defaults
+        (autopilot.ARDUPILOT_DEFAULTS), as the real SITL's does; mavhelm's own hulls keep the
+        gains and navigation values tuned to them."""
         if model is not None and (vehicle is not None or variant is not None):
             raise ValueError("give model= or vehicle=/variant=, not both")
         if model is None:
@@ -118,11 +124,15 @@ class Simulator:
         timeline = ap.Timeline.fast() if fast_start else ap.Timeline()
         merged = dict(SIM_PARAMS)
         merged["SIM_DEPTH"] = 20.0 if on_water else 0.0
+        firmware = self.model.firmware_defaults
+        if firmware:
+            merged.update(SIM_FIRMWARE_DEFAULTS)
         merged.update(FENCE_PARAMS)
         merged.update(loaded.values)
         merged.update({k.upper(): v for k, v in (params or {}).items()})
         self.autopilot = ap.Autopilot(boat=on_water, skid=self.model.skid, boot_time=self.boot,
-                                      timeline=timeline, params=merged, latlon=home.to_global)
+                                      timeline=timeline, params=merged, latlon=home.to_global,
+                                      firmware_defaults=firmware)
         self.params = self.autopilot.params
         self.param_table = ParameterTable(self.params)
         self.sysid = int(self.params["MAV_SYSID"])
@@ -242,7 +252,8 @@ class Simulator:
             a.gps_has_fix = e.has_fix
         e.update(a.est, t, DT, heading=m.heading, yaw_rate=m.yaw_rate, surge=m.surge,
                  sway=m.sway, compass_bias=self._compass_bias,
-                 have_origin=a.ekf_origin is not None, dr_time=p.get("SIM_EKF_DR_TIME", 10.0))
+                 have_origin=a.ekf_origin is not None, dr_time=p.get("SIM_EKF_DR_TIME", 10.0),
+                 vx=m.vx, vy=m.vy)
         a.update(t, DT)
         if self.env.armed != a.armed:  # the SITL's tide and waves act only while armed
             self.env = replace(self.env, armed=a.armed)
