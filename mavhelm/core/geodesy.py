@@ -18,6 +18,9 @@ import pymap3d
 from mavhelm.core.mission import Mission
 from mavhelm.core.params import Number, Param, Schema
 
+WGS84 = pymap3d.Ellipsoid.from_name("wgs84")
+"""pymap3d's default ellipsoid, built once (it builds one per call when none is given)."""
+
 
 @dataclass(frozen=True)
 class Origin:
@@ -28,12 +31,12 @@ class Origin:
 
     @cached_property
     def _ecef(self) -> tuple[float, float, float]:
-        return pymap3d.geodetic2ecef(self.lat, self.lon, 0.0)
+        return pymap3d.geodetic2ecef(self.lat, self.lon, 0.0, WGS84)
 
     def to_local(self, lat: float, lon: float) -> tuple[float, float]:
         """(x east, y north) in metres: pymap3d's geodetic2enu, with the origin's ECEF
         position worked out once (the bridge converts every GPS fix)."""
-        x, y, z = pymap3d.geodetic2ecef(lat, lon, 0.0)
+        x, y, z = pymap3d.geodetic2ecef(lat, lon, 0.0, WGS84)
         x0, y0, z0 = self._ecef
         e, n, _ = pymap3d.uvw2enu(x - x0, y - y0, z - z0, self.lat, self.lon)
         return float(e), float(n)
@@ -47,7 +50,7 @@ class Origin:
         """
         up = -(x * x + y * y) / (2.0 * 6371008.8)
         for _ in range(3):
-            lat, lon, h = pymap3d.enu2geodetic(x, y, up, self.lat, self.lon, 0.0)
+            lat, lon, h = pymap3d.enu2geodetic(x, y, up, self.lat, self.lon, 0.0, WGS84)
             if abs(h) < 1e-6:
                 break
             up -= float(h)

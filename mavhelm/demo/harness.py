@@ -117,6 +117,12 @@ class SimulatedRun:
                                f"status texts: {self.gcs.statustexts[-5:]}")
         return self.operator.handed_over_at or self.clock.now()
 
+    def close_ground_station(self) -> None:
+        """The operator closes the ground station (after the hand-over, say): it is no longer
+        stepped and its connection closes; the autopilot carries on (FS_GCS_ENABLE 0)."""
+        self.lockstep.remove_peer(self.gcs.conn)
+        self.gcs.close()
+
     @property
     def companion_link(self):
         """The simulator's end of the companion's connection (what ArduPilot received)."""

@@ -113,6 +113,11 @@ class Lockstep:
         peer.link = self._wait_for_link(end)
         self.peers.append(peer)
 
+    def remove_peer(self, conn: mavutil.mavfile | Endpoint) -> None:
+        """Stop stepping a peer (before it disconnects): the simulator no longer waits for it."""
+        self.peers = [p for p in self.peers
+                      if p.end is not conn and getattr(p.end, "conn", None) is not conn]
+
     def _wait_for_link(self, end: Endpoint):
         deadline = time.monotonic() + self.wall_timeout
         local = None
@@ -138,12 +143,16 @@ class Lockstep:
 
     def _deliver_to_peer(self, peer: Peer) -> None:
         link, end = peer.link, peer.end
+        if end.bytes_received() >= link.bytes_sent:
+            return  # nothing new was sent (a quiet link, most steps): no FIONREAD
         sock = end.socket()
         self._wait(lambda: end.bytes_received() + pending_bytes(sock) >= link.bytes_sent,
                    sock, "a peer to receive the simulator's bytes")
 
     def _deliver_to_sim(self, peer: Peer) -> None:
         link, end = peer.link, peer.end
+        if link.bytes_received >= end.bytes_sent():
+            return
         self._wait(lambda: link.bytes_received + pending_bytes(link.sock) >= end.bytes_sent(),
                    link.sock, "the simulator to receive a peer's bytes")
 
