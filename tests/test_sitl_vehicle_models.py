@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sitl_rig import Rig, command
 
 from mavhelm.sitl import runner
+from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
 from mavhelm.sitl.boat import SimEnvironment
 from mavhelm.sitl.models import LEGACY_MODELS, MODELS, find_model, legacy_model
 from mavhelm.sitl.simulator import DT
@@ -61,7 +62,12 @@ def test_each_model_steps_through_the_simulator(name):
         assert r.sim.armed
         _override(c, 1600, 1800)
         r.step()
+        first = r.sim.autopilot.servo_outputs()
+        r.run(1.5)  # the throttle output slews to the stick at MOT_SLEWRATE 100 %/s first
+        _override(c, 1600, 1800)  # (an override lasts RC_OVERRIDE_TIME, 3 s)
+        r.step()
         outputs = r.sim.autopilot.servo_outputs()
+        assert first != outputs
         start, t0 = r.sim._state, r.sim.truth.t
         r.run(3.0)
         assert r.sim.autopilot.servo_outputs() == outputs  # MANUAL: constant sticks, outputs
@@ -122,6 +128,62 @@ def test_defaults_files_are_applied_over_the_parameter_table(tmp_path):
             assert got and got[-1].param_value == pytest.approx(value), name
     finally:
         r.close()
+
+
+def test_sitl_models_start_from_ardupilot_defaults(tmp_path):
+    """A SITL model's table starts, as the real SITL's, from ArduPilot's own defaults, with the
+    files on top: the gains the stock files leave out are the firmware's (ATC_STR_RAT_P 0.2,
+    not the 1.5 tuned to mavhelm's rudder hull). mavhelm's own hulls keep their tuned values."""
+    for name in MODELS:
+        r = Rig(model=name, ports=(0,))
+        try:
+            p = r.sim.params
+            assert {k: p[k] for k in ARDUPILOT_DEFAULTS} == ARDUPILOT_DEFAULTS, name
+            assert (p["SIM_WIND_T"], p["MOT_SLEWRATE"]) == (0.0, 100.0), name
+            assert (p["SERVO1_FUNCTION"], p["SERVO3_FUNCTION"]) == \
+                find_model(name).servo_functions
+        finally:
+            r.close()
+    r = Rig(model="motorboat", defaults=_stock(tmp_path))
+    try:
+        p = r.sim.params
+        assert (p["ATC_SPEED_P"], p["ATC_STR_RAT_FF"], p["CRUISE_THROTTLE"]) == (0.1, 0.75, 30.0)
+        assert (p["ATC_STR_RAT_P"], p["ATC_STR_RAT_I"], p["ATC_STR_RAT_IMAX"], p["ATC_SPEED_I"],
+                p["ATC_SPEED_IMAX"]) == (0.2, 0.2, 1.0, 0.2, 1.0)
+        assert p["SIM_WIND_T"] == 1.0  # motorboat.parm's
+    finally:
+        r.close()
+    for vehicle, variant in LEGACY_MODELS:
+        r = Rig(vehicle=vehicle, variant=variant, ports=(0,))
+        try:
+            own = default_params(vehicle == "boat", variant == "skid")
+            assert {k: r.sim.params[k] for k in ARDUPILOT_DEFAULTS} == \
+                {k: own[k] for k in ARDUPILOT_DEFAULTS}
+            assert r.sim.params["ATC_STR_RAT_P"] != ARDUPILOT_DEFAULTS["ATC_STR_RAT_P"]
+        finally:
+            r.close()
+
+
+@pytest.mark.slow
+def test_ardupilot_defaults_are_the_firmwares(real_sitl, tmp_path):
+    """The real SITL started with an empty defaults file answers ARDUPILOT_DEFAULTS, and every
+    other name of the simulator's table it has with the table's value (FRAME_CLASS apart: the
+    stock files set it; GPS1_RATE_MS is the simulator's own)."""
+    from ardupilot import connect_tcp
+
+    empty = tmp_path / "empty.parm"
+    empty.write_text("")
+    sitl = real_sitl(model="motorboat", speedup=5, defaults=[str(empty)])
+    conn = connect_tcp(sitl.ports.serial0, source_system=255, source_component=190)
+    try:
+        want = default_params(boat=True, skid=False, firmware=True)
+        for name in sorted(want):
+            if name in ("FRAME_CLASS", "GPS1_RATE_MS"):
+                continue
+            got = _read_param(conn, name, timeout=3.0)
+            assert got == pytest.approx(want[name], rel=1e-6), name
+    finally:
+        conn.close()
 
 
 def test_stock_waves_rock_the_motorboat_only_while_armed(tmp_path):

@@ -151,16 +151,13 @@ class Estimate:
 # the table below is mavhelm's hulls' (rover.parm's navigation values, controller terms tuned to
 # those hulls). AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_FF/P/I 0.2, IMAX 1.0;
 # AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; Rover/Parameters.cpp: CRUISE_SPEED 2,
-# CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. The real SITL answers GPS1_TYPE 0 (its
-# simulated receiver is attached whatever it says). Not here, because the model decides them:
-# FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set them);
-# and RC1_DZ/RC3_DZ, which the real SITL answers as 0 but applies as 30 (Rover's
-# set_default_dead_zone; measured, docs/sim-vehicles.md), so the table keeps 30.
+# CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. Not here, because the model decides
+# them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set
+# them). tests/test_sitl_vehicle_models.py reads every name back from the real binary.
 ARDUPILOT_DEFAULTS: dict[str, float] = {
     "ATC_STR_RAT_FF": 0.2, "ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
     "ATC_SPEED_P": 0.2, "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0,
     "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 50.0, "WP_SPEED": 2.0, "WP_RADIUS": 2.0,
-    "GPS1_TYPE": 0,
 }
 
 
@@ -210,7 +207,7 @@ def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, 
         p[f"RC{i}_MIN"] = 1100
         p[f"RC{i}_MAX"] = 1900
         p[f"RC{i}_TRIM"] = 1500
-        p[f"RC{i}_DZ"] = 30 if i in (1, 3) else 0
+        p[f"RC{i}_DZ"] = 30 if i in (1, 3, 4) else 0  # Rover: steering, throttle, lateral
     if skid:
         p["SERVO1_FUNCTION"] = FN_THROTTLE_LEFT
         p["SERVO3_FUNCTION"] = FN_THROTTLE_RIGHT
