@@ -38,6 +38,7 @@ bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_nav.py
 	$(BIN)/python benchmarks/bench_nav_ardupilot.py
 	$(BIN)/python benchmarks/bench_step_response.py
+	$(BIN)/python benchmarks/bench_braking.py
 
 params: $(BIN)/.installed
 	$(BIN)/mavhelm params > docs/parameters.md

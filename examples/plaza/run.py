@@ -44,7 +44,7 @@ def load(mission: str | Path, alog: str | Path) -> tuple[Block, list[Message]]:
 def drift_heading(messages: list[Message], deg_per_min: float) -> list[Message]:
     """The heading readings (``ODOM_HEADING``) drifting away from the truth."""
     t0 = messages[0].time
-    return [dataclasses.replace(m, value=(m.double + deg_per_min * (m.time - t0) / 60.0) % 360.0)
+    return [m._replace(value=(m.double + deg_per_min * (m.time - t0) / 60.0) % 360.0)
             if m.name == "ODOM_HEADING" else m for m in messages]
 
 
