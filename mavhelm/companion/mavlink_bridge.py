@@ -485,21 +485,20 @@ class MavlinkBridge:
                 and msg.get_srcComponent() == self.config.target_component)
 
     def _handle(self, msg: mavlink.MAVLink_message, now: float) -> None:
-        if msg.get_type() == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GCS \
+        kind = msg.get_type()
+        if kind == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GCS \
                 and (msg.get_srcSystem(), msg.get_srcComponent()) != \
                 (self.config.system_id, self.config.component_id):
             self._gcs_heard_at = now
             return
-        if msg.get_type() == "COMMAND_LONG" and self._for_us(msg):
+        if kind == "COMMAND_LONG" and self._for_us(msg):
             self._command(msg)
             return
-        if msg.get_type() == "TUNNEL" and self._for_us(msg) \
-                and msg.payload_type == TUNNEL_PAYLOAD_TYPE:
+        if kind == "TUNNEL" and self._for_us(msg) and msg.payload_type == TUNNEL_PAYLOAD_TYPE:
             self._third_party_request(msg)
             return
         if not self._from_autopilot(msg):
             return
-        kind = msg.get_type()
         self._heard.add(kind)
         boot_ms = getattr(msg, "time_boot_ms", None)
         if boot_ms is not None and self.time_source is not None:
@@ -836,11 +835,12 @@ class AutopilotOutput(App):
         super().__init__(bridge.bus)
         self.bridge = bridge
         self._mail: list[Message] = []
+        self._subscriptions = frozenset({
+            "DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR", "HELM_HANDBACK",
+            REPLY_VARIABLE, *NAMED_VALUES, *bridge.servos.variables()})
 
-    def subscriptions(self) -> set[str]:
-        return {"DESIRED_RUDDER", "DESIRED_THRUST", "DESIRED_ELEVATOR", "HELM_HANDBACK",
-                REPLY_VARIABLE, *NAMED_VALUES,
-                *self.bridge.servos.variables()}
+    def subscriptions(self) -> frozenset[str]:
+        return self._subscriptions
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         self._mail = mail

@@ -7,6 +7,8 @@ MAVLink out takes one tick from sensor to actuator.
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
+
 from mavhelm.core.bus import Bus, Message
 
 
@@ -18,9 +20,10 @@ class App:
     def __init__(self, bus: Bus) -> None:
         self.bus = bus
 
-    def subscriptions(self) -> set[str]:
-        """Variables this app wants; asked every tick, so it may grow as tasks start."""
-        return set()
+    def subscriptions(self) -> AbstractSet[str]:
+        """Variables this app wants; asked every tick, so it may grow as tasks start. Return
+        the same frozenset while they stay the same: the community then need not compare."""
+        return frozenset()
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         """Take this tick's mail (called before iterate, possibly with an empty list)."""

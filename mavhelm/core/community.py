@@ -17,7 +17,7 @@ class Community:
         self.ticks = 0
         self.profile = profile
         self.app_seconds: dict[str, list[float]] = defaultdict(list)
-        self._subscribed: dict[str, set[str]] = {}
+        self._subscribed: dict[str, frozenset[str]] = {}
 
     def tick(self, now: float) -> None:
         """Every app (re)subscribes, then each in order takes its mail and iterates.
@@ -27,9 +27,11 @@ class Community:
         """
         for app in self.apps:
             names = app.subscriptions()
-            if self._subscribed.get(app.name) != names:  # the bus keeps what it was told
+            last = self._subscribed.get(app.name)
+            if names is not last and names != last:  # the bus keeps what it was told
                 self.bus.subscribe(app.name, names)
-                self._subscribed[app.name] = set(names)
+                self._subscribed[app.name] = (names if isinstance(names, frozenset)
+                                              else frozenset(names))
         for app in self.apps:
             t0 = time.perf_counter() if self.profile else 0.0
             app.on_mail(self.bus.fetch(app.name), now)

@@ -271,6 +271,7 @@ class Navigator(App):
                 for name in names:
                     self._inputs.setdefault(name, []).append((queue, source.name))
         self._announced: dict[str, object] = {q.key: _UNSET for q in self.queues}
+        self._subscriptions: frozenset[str] | None = None
         self.fusion = fusion
         self.reader = (SensorReader(sensors or [], fusion.config.beacons, sound_speed)
                        if fusion is not None else None)
@@ -320,11 +321,13 @@ class Navigator(App):
     def wants_log(self) -> bool:
         return self.fusion is not None and bool(self.log_settings.get("nav_log", False))
 
-    def subscriptions(self) -> set[str]:
-        subs = set(self._inputs)
-        if self.reader is not None:
-            subs |= self.reader.subscriptions()
-        return subs
+    def subscriptions(self) -> frozenset[str]:
+        if self._subscriptions is None:  # the queues and sensors are fixed once built
+            subs = set(self._inputs)
+            if self.reader is not None:
+                subs |= self.reader.subscriptions()
+            self._subscriptions = frozenset(subs)
+        return self._subscriptions
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         mail = [m for m in mail if m.source != self.name]  # own EKF_*/LSQ_* already routed

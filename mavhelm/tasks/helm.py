@@ -118,7 +118,7 @@ class Helm(App):
                 return t
         raise KeyError(name)
 
-    def subscriptions(self) -> set[str]:
+    def subscriptions(self) -> frozenset[str]:
         """What the tasks need, and the vehicle's pose always: a task started by a guest or a
         reload then finds navigation already current, not one tick late. Rebuilt only when a
         task, its flags or its needs change (a HoldingPattern needs NAV_* once it has a place
@@ -134,7 +134,7 @@ class Helm(App):
             if HEADING in subs:
                 subs.update((NAV_YAW, source_variable(NAV_YAW)))
             self._subs = (key, frozenset(subs))
-        return set(self._subs[1])
+        return self._subs[1]
 
     def _tasks_key(self) -> tuple[int, int, int]:
         """Changes when the task list does (a guest's task appended) or a task starts or ends
