@@ -21,6 +21,9 @@ def clamp(v: float, lo: float, hi: float) -> float:
     return lo if v < lo else hi if v > hi else v
 
 
+_DEG = math.radians(1.0)  # rad per degree
+
+
 @dataclass
 class Pid:
     """The integrator of one PI loop (the P and FF terms hold no state)."""
@@ -72,7 +75,10 @@ class AttitudeControl:
         """Steering for a heading (degrees): a rate ∝ the error, capped at ATC_STR_RAT_MAX."""
         p = self.params
         err = wrap180(heading - est_heading)
-        rate = clamp(err * p["ATC_STR_ANG_P"], -p["ATC_STR_RAT_MAX"], p["ATC_STR_RAT_MAX"])
+        rmax = p["ATC_STR_RAT_MAX"]
+        rate = err * p["ATC_STR_ANG_P"]
+        # clamp() inlined (here and below): these run every control-loop pass
+        rate = -rmax if rate < -rmax else rmax if rate > rmax else rate
         return self.rate_control(rate, est_rate, dt, now)
 
     def rate_control(self, rate: float, est_rate: float, dt: float,
@@ -85,18 +91,19 @@ class AttitudeControl:
                 self.rate_target = est_rate
             self._rate_last = now
         rmax = p["ATC_STR_RAT_MAX"]
-        rate = clamp(rate, -rmax, rmax)
+        rate = -rmax if rate < -rmax else rmax if rate > rmax else rate
         acc = p["ATC_STR_ACC_MAX"] * dt
         if acc > 0:
-            rate = clamp(rate, self.rate_target - acc, self.rate_target + acc)
+            lo, hi = self.rate_target - acc, self.rate_target + acc
+            rate = lo if rate < lo else hi if rate > hi else rate
         self.rate_target = rate
-        scale = math.radians(1.0)
-        err = (rate - est_rate) * scale
+        err = (rate - est_rate) * _DEG
         pid = self.rate_pid
         imax = p["ATC_STR_RAT_IMAX"]
-        pid.integ = clamp(pid.integ + err * p["ATC_STR_RAT_I"] * dt, -imax, imax)
-        ff = rate * scale * p["ATC_STR_RAT_FF"]
-        return clamp(ff + err * p["ATC_STR_RAT_P"] + pid.integ, -1.0, 1.0)
+        integ = pid.integ + err * p["ATC_STR_RAT_I"] * dt
+        pid.integ = integ = -imax if integ < -imax else imax if integ > imax else integ
+        out = rate * _DEG * p["ATC_STR_RAT_FF"] + err * p["ATC_STR_RAT_P"] + integ
+        return -1.0 if out < -1.0 else 1.0 if out > 1.0 else out
 
     # ------------------------------------------------------------------ speed
     def speed_active(self, now: float | None) -> bool:
@@ -123,13 +130,14 @@ class AttitudeControl:
         amax = p["ATC_ACCEL_MAX"]
         if not self.speed_active(now) or amax <= 0:
             return speed
-        dt = clamp(dt, 0.0, 1.0)
+        dt = 0.0 if dt < 0.0 else 1.0 if dt > 1.0 else dt
         prev = self.speed_target
         if abs(speed) < abs(prev) and p["ATC_DECEL_MAX"] > 0:
             lim = p["ATC_DECEL_MAX"] * dt
         else:
             lim = amax * dt
-        return clamp(speed, prev - lim, prev + lim)
+        lo, hi = prev - lim, prev + lim
+        return lo if speed < lo else hi if speed > hi else speed
 
     def speed_control(self, speed: float, est_speed: float, dt: float,
                       now: float | None = None) -> float:
@@ -148,7 +156,8 @@ class AttitudeControl:
         integ = pid.integ
         if not self.motor_limit or (integ > 0.0 > err) or (integ < 0.0 < err):
             imax = p["ATC_SPEED_IMAX"]
-            pid.integ = integ = clamp(integ + err * p["ATC_SPEED_I"] * dt, -imax, imax)
+            integ += err * p["ATC_SPEED_I"] * dt
+            pid.integ = integ = -imax if integ < -imax else imax if integ > imax else integ
         cs = max(p["CRUISE_SPEED"], 0.1)
         ff = speed / cs * p["CRUISE_THROTTLE"] * 0.01
         thr = ff + err * p["ATC_SPEED_P"] + integ
@@ -157,7 +166,7 @@ class AttitudeControl:
             if speed >= 0 and thr <= 0 or speed <= 0 and thr >= 0:
                 thr = 0.0
         tmax = p["MOT_THR_MAX"] * 0.01
-        return clamp(thr, -tmax, tmax)
+        return -tmax if thr < -tmax else tmax if thr > tmax else thr
 
     def stop_control(self, est_speed: float, dt: float,
                      now: float | None = None) -> tuple[float, bool]:

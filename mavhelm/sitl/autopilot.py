@@ -255,6 +255,7 @@ class Autopilot:
         self._initialised = False
         self._announced: set[str] = set()  # boot events said: home, origin, gps
         self._boot_text = 0  # index of the next timed boot text
+        self._boot_done = False  # every boot text said, init done, GPS in use (see home/origin)
         self._boot_times = [self.timeline.map(b.at) for b in BOOT_TEXTS]
         self.rc = RcInput(self.params)
         # navigation targets the modes share (upstream: the waypoint and position controllers)
@@ -299,6 +300,8 @@ class Autopilot:
 
     def update_timeline(self, now: float) -> None:
         """Advance the boot sequence: its texts, the mode after init, home, the EKF origin."""
+        if self._boot_done and self.home is not None and self.ekf_origin is not None:
+            return  # the sequence is over: nothing below can fire again
         up = self.uptime(now)
         if not self._initialised and up >= self.timeline.initialised:
             self._initialised = True
@@ -328,6 +331,8 @@ class Autopilot:
                 text = text.format(lat=lat, lon=lon)
             self.text(b.severity, text)
             self._boot_text += 1
+        self._boot_done = (self._initialised and "gps" in self._announced
+                           and self._boot_text >= len(BOOT_TEXTS))
 
     # ------------------------------------------------------------------ modes
     def base_mode(self) -> int:

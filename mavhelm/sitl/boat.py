@@ -71,10 +71,17 @@ class Environment:
     water_depth: float = 20.0  # m
 
     def drift(self, leeway: float) -> tuple[float, float]:
-        """Earth-frame (east, north) velocity added to the hull by current and wind."""
+        """Earth-frame (east, north) velocity added to the hull by current and wind. Kept for
+        the last leeway asked (the environment is immutable and the physics asks for the
+        same hull's drift several times a step)."""
+        last = self.__dict__.get("_drift")
+        if last is not None and last[0] is leeway:
+            return last[1]
         to = math.radians(self.wind_from + 180.0)
         w = leeway * self.wind_speed
-        return (self.current_east + w * math.sin(to), self.current_north + w * math.cos(to))
+        d = (self.current_east + w * math.sin(to), self.current_north + w * math.cos(to))
+        object.__setattr__(self, "_drift", (leeway, d))  # a cache, not a field
+        return d
 
 
 def thruster_force(cmd: float, p: BoatParams) -> float:

@@ -21,6 +21,20 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+# fastcrc's CRC-16/MCRF4XX, which pymavlink's x25crc wraps when it is installed (None if not)
+_MCRF4XX = getattr(mavlink, "mcrf4xx", None)
+
+
+def _checksum(pkt: bytearray, crc_extra: int) -> int:
+    """The MAVLink checksum of a packed packet (header after the magic byte, payload, then
+    crc_extra): x25crc's value, without its object and per-call type checks when fastcrc is
+    there (send_again runs for every stream message on every link)."""
+    if _MCRF4XX is None:
+        crc = mavlink.x25crc(pkt[1:-2])
+        crc.accumulate(bytes((crc_extra,)))
+        return crc.crc
+    return _MCRF4XX(bytes((crc_extra,)), _MCRF4XX(bytes(pkt[1:-2]), 0xFFFF))
+
 LINK_FAULTS = ("link_drop", "link_stall", "link_garbage", "link_duplicate", "link_reorder")
 
 
@@ -146,9 +160,7 @@ class Link:
             self.send(msg)
             return
         pkt[4] = mav.seq
-        crc = mavlink.x25crc(pkt[1:-2])
-        crc.accumulate(bytes((msg.crc_extra,)))
-        pkt[-2:] = crc.crc.to_bytes(2, "little")
+        pkt[-2:] = _checksum(pkt, msg.crc_extra).to_bytes(2, "little")
         mav.seq = (mav.seq + 1) % 256
         mav.total_packets_sent += 1
         mav.total_bytes_sent += len(pkt)

@@ -66,8 +66,13 @@ class MotorsUGV:
         limit flags the speed controller reads next pass: throttle_upper/lower when the slew
         held it back, when it is at ±MOT_THR_MAX, when skid mixing cut it, and both while
         disarmed (set_limits_from_input)."""
-        tmax = clamp(self.params.get("MOT_THR_MAX", 100.0), 5.0, 100.0) * 0.01
-        demand = clamp(throttle, -tmax, tmax) if armed else 0.0
+        # clamp() inlined: this runs every control-loop pass
+        tmax = self.params.get("MOT_THR_MAX", 100.0)
+        tmax = (5.0 if tmax < 5.0 else 100.0 if tmax > 100.0 else tmax) * 0.01
+        if armed:
+            demand = -tmax if throttle < -tmax else tmax if throttle > tmax else throttle
+        else:
+            demand = 0.0
         out = self.slew_limited(demand, dt)
         self.throttle_prev = out
         lower = out > demand or out <= -tmax or not armed
