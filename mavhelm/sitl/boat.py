@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
+from functools import cached_property
 from typing import Any, NamedTuple
 
 from mavhelm.sitl.truth import Truth
@@ -70,18 +71,18 @@ class Environment:
     wind_from: float = 0.0  # degrees the wind blows FROM, clockwise from north
     water_depth: float = 20.0  # m
 
-    def drift(self, leeway: float) -> tuple[float, float]:
-        """Earth-frame (east, north) velocity added to the hull by current and wind. Kept for
-        the last leeway asked (the environment is immutable and the physics asks for the
-        same hull's drift several times a step)."""
-        last = self.__dict__.get("_drift")
-        if last is not None and last[0] is leeway:
-            return last[1]
+    @cached_property
+    def _wind_toward(self) -> tuple[float, float]:
+        """(sin, cos) of the direction the wind blows toward, worked out once."""
         to = math.radians(self.wind_from + 180.0)
+        return math.sin(to), math.cos(to)
+
+    def drift(self, leeway: float) -> tuple[float, float]:
+        """Earth-frame (east, north) velocity added to the hull by current and wind (asked
+        several times a physics step, hence the direction kept above)."""
         w = leeway * self.wind_speed
-        d = (self.current_east + w * math.sin(to), self.current_north + w * math.cos(to))
-        object.__setattr__(self, "_drift", (leeway, d))  # a cache, not a field
-        return d
+        sin_to, cos_to = self._wind_toward
+        return (self.current_east + w * sin_to, self.current_north + w * cos_to)
 
 
 def thruster_force(cmd: float, p: BoatParams) -> float:
