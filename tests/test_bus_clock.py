@@ -150,3 +150,17 @@ def test_a_clock_ahead_of_the_autopilot_does_not_stop_the_ticks():
     t0 = time.monotonic()
     clock.sleep_until(clock.now() + 0.1)
     assert time.monotonic() - t0 < 0.25  # 0.1 s at 10x is 10 ms; frozen would be 0.5 s
+
+
+def test_backoff_doubles_to_its_ceiling_and_resets_on_success():
+    from mavhelm.core.backoff import Backoff
+
+    b = Backoff(first_s=1.0, max_s=8.0)
+    assert b.due(0.0)
+    waits = [b.failed(t) for t in (0.0, 1.0, 3.0, 7.0, 15.0, 23.0)]
+    assert waits == [1.0, 2.0, 4.0, 8.0, 8.0, 8.0]
+    assert not b.due(30.9) and b.due(31.0)
+    b.succeeded()
+    assert b.due(0.0) and b.failed(40.0) == 1.0
+    with pytest.raises(ValueError):
+        Backoff(first_s=0.0)
