@@ -155,7 +155,7 @@ class Task:
     def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
         self.block = block
         self.gains = gains or HelmGains()
-        self.name: str | None = None
+        self.name: str = ""
         self.start_flags: list[str] = []
         self.finish_flags: list[str] = []
         self.event_flags: list[str] = []
@@ -166,7 +166,7 @@ class Task:
         self.timeout_clock = "ONLINE"
         label = block.get("Name") or self.keyword
         self.schema().apply(self, block, owner=f"{self.keyword} task {label}")
-        if self.name is None:
+        if not self.name:
             self.name = self.keyword
         self.check(block)
         self.initial_on: bool = (not self.start_flags if self.initial_state is None

@@ -22,6 +22,8 @@ anything happened — and it also voted thrust 0, rudder 0 and elevator up at pr
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from mavhelm.core.mission import Block
 from mavhelm.core.params import Number, Param, Seconds
 from mavhelm.tasks.base import NavState, Task, Votes
@@ -44,7 +46,7 @@ class LimitTask(Task):
     exceeded (empty when all is well); ``on_state(ok)`` hears every change of that verdict.
     """
 
-    params = (
+    params: ClassVar[tuple[Param, ...]] = (
         Param("TimeOut", Seconds(), None, "s", "the longest the task may watch (default NEVER: "
               "a safety task normally watches the whole mission)", attr="timeout"),
         Param("IgnoreTime", Number(0.0, 3600.0), 0.0, "s",

@@ -152,7 +152,8 @@ class HelmGains:
     @classmethod
     def from_values(cls, values: dict[str, object]) -> HelmGains:
         """From a pHelm block read by a schema holding ``GAIN_PARAMS`` (other keys ignored)."""
-        return cls(**{p.attribute: values[p.attribute] for p in GAIN_PARAMS})
+        return cls(**{p.attribute: float(values[p.attribute])  # type: ignore[arg-type]
+                      for p in GAIN_PARAMS})
 
     def yaw_pid(self) -> ScalarPID:
         """A fresh heading controller: error in degrees, output rudder in degrees."""

@@ -6,12 +6,14 @@ so are the track-following tasks of the spec (TrackLine, Orbit, XYPattern, Surve
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from mavhelm.core.params import Param
 from mavhelm.tasks.base import THRUST, NavState, Task, Votes
 
 
 class SteeringTask(Task):
-    params = (
+    params: ClassVar[tuple[Param, ...]] = (
         Param("Thrust", THRUST, None, "%",
               "thrust vote while the task runs; without it the task steers only"),
     )

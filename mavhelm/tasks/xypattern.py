@@ -15,11 +15,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar, Protocol
 
 from mavhelm.core.mission import Block, Entry
 from mavhelm.core.params import Kind, Param, Point
-from mavhelm.tasks.base import Task
 from mavhelm.tasks.geometry import Point2
 from mavhelm.tasks.trackline import RouteTask
 from mavhelm.tasks.waypoint import RADIUS
@@ -52,7 +51,17 @@ class Passes(Kind):
         return int(x)
 
 
-def check_pattern(task: Task, block: Block) -> None:
+class PatternTask(Protocol):
+    """What ``check_pattern`` reads of a waypoint-pattern task."""
+
+    keyword: ClassVar[str]
+    name: str
+    locations: list[Any]
+    repeat: int | None
+    radius: float
+
+
+def check_pattern(task: PatternTask, block: Block) -> None:
     """A waypoint pattern's Location lines: at least one; two or more to repeat; none within
     Radius of the one before it (it would count as reached at once). Shared by the pattern
     tasks (XYPattern, SteerThenDriveXYPattern)."""
