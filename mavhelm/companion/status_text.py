@@ -42,7 +42,7 @@ def _goal(e: Goal) -> str | None:
 
 def _nav_source(e: NavSource) -> str:
     if e.source == NO_SOURCE:
-        return f"nav {e.key} lost: every source in its priority queue timed out"
+        return f"nav {e.key}: no source (none in its priority queue is fresh)"
     return f"nav {e.key} from {e.source}"
 
 
@@ -83,7 +83,9 @@ GCS_SEVERITY: dict[type, Severity] = {
     NavWarning: Severity.WARNING,
     NavFailure: Severity.ERROR,
 }
-"""The helm's events a ground station is told about; alerts carry their own severity."""
+"""The helm's events a ground station is told about; alerts carry their own severity. A NAV
+source is console only: every queue starts without one, and the tasks' starvation (an
+``_ERROR``) is what the operator must hear."""
 
 
 def line(event: Event) -> str | None:
@@ -96,6 +98,4 @@ def gcs_severity(event: Event) -> Severity | None:
     """The MAV_SEVERITY the event's line goes to the ground station with, or None."""
     if isinstance(event, Alert):
         return event.severity
-    if isinstance(event, NavSource):
-        return Severity.WARNING if event.source == NO_SOURCE else None
     return GCS_SEVERITY.get(type(event))
