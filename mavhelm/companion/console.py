@@ -193,11 +193,12 @@ class StatusConsole(App):
         """One event: into the state, onto the console, to the ground station."""
         self.status = self.status.apply(event)
         text = line(event)
-        shown = text is not None and self._show(text, now)
-        if shown and self.statustext is not None:
+        shown = False
+        if text is not None:
+            shown = self._show(text, now)
             severity = gcs_severity(event)
-            if severity is not None:
-                self._to_gcs(text, severity, now)  # type: ignore[arg-type]
+            if shown and severity is not None and self.statustext is not None:
+                self._to_gcs(text, severity, now)
         if self.tunnel is not None and self._tunnelled(event, shown, now):
             self.tunnel(encode(event))
 
