@@ -155,7 +155,8 @@ class Companion:
                 navigator.log = nav_logs
         apps.append(StatusConsole(
             bus, echo, statustext=bridge.send_statustext,
-            tunnel=lambda payload: bridge.send_tunnel(STATUS_PAYLOAD_TYPE, payload)))
+            tunnel=lambda payload: bridge.send_tunnel(STATUS_PAYLOAD_TYPE, payload,
+                                                      target=(0, 0))))
         companion = cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
                         1.0 / helm.app_tick, plan, nav_logs)
         companion.community.apps.insert(0, HelmReloader(bus, companion.reload))
