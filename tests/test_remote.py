@@ -30,6 +30,8 @@ from mavhelm.companion.remote import (
     parse_ids,
     render,
 )
+from mavhelm.companion.status import HelmReloaded, HelmState, MissionEnded, TaskEnded, TaskStarted
+from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, encode
 
 AP = (1, 1)
 COMPANION = (1, 191)
@@ -64,6 +66,13 @@ def companion_heartbeat(src: tuple[int, int] = COMPANION) -> mavlink.MAVLink_mes
 
 def text(line: str, src: tuple[int, int] = COMPANION) -> mavlink.MAVLink_message:
     return frame(mavlink.MAVLink_statustext_message(6, line.encode()), src)
+
+
+def status(event) -> mavlink.MAVLink_message:
+    """A typed status event from the companion, in a TUNNEL to every listener."""
+    payload = encode(event)
+    return frame(mavlink.MAVLink_tunnel_message(0, 0, STATUS_PAYLOAD_TYPE, len(payload),
+                                                payload.ljust(128, b"\0")), COMPANION)
 
 
 def ack(command: int, result: int = mavlink.MAV_RESULT_ACCEPTED, src: tuple[int, int] = AP,
@@ -354,7 +363,7 @@ def test_nudges_are_refused_when_disarmed_without_a_link_and_while_the_helm_driv
     assert s.status == "rudder refused: no HEARTBEAT from the autopilot"
     # rc_override actuation: the helm drives in MANUAL; the operator must take over first
     s = state_up("MANUAL", armed=True)
-    s.receive(text("helm ONLINE: autopilot armed in MANUAL"), 10.1)
+    s.receive(status(HelmState(True, "ONLINE: autopilot armed in MANUAL")), 10.1)
     assert s.handle_key("w", 10.2) == []
     assert "the helm is driving" in s.status
 
@@ -435,30 +444,43 @@ def test_another_ground_stations_ack_is_not_ours():
 
 # -- what the companion says ------------------------------------------------------------------
 
-def test_helm_status_tasks_and_texts_from_the_companions_statustext():
+def test_helm_status_and_tasks_from_the_status_channel_and_its_texts_listed():
+    """The companion says each thing twice: a STATUSTEXT line, listed for the operator, and a
+    typed event, which alone updates the helm's state."""
     s = state_up("GUIDED", armed=True, now=0.0)
-    for line in ["helm ONLINE: autopilot armed in GUIDED", "task InitialDelay started",
-                 "task MissionClock started", "task InitialDelay ended: timeout",
-                 "task South started", "South steers: heading 180 deg"]:
-        s.receive(text(line), 1.0)
+
+    def says(line, event, now):
+        s.receive(text(line), now)
+        s.receive(status(event), now)
+
+    for line, event in [
+            ("helm ONLINE: autopilot armed in GUIDED",
+             HelmState(True, "ONLINE: autopilot armed in GUIDED")),
+            ("task InitialDelay started", TaskStarted("InitialDelay")),
+            ("task MissionClock started", TaskStarted("MissionClock")),
+            ("task InitialDelay ended: timeout", TaskEnded("InitialDelay", "timeout")),
+            ("task South started", TaskStarted("South"))]:
+        says(line, event, 1.0)
+    s.receive(text("South steers: heading 180 deg"), 1.0)
     assert s.helm == "ONLINE: autopilot armed in GUIDED"
     assert s.tasks == ["MissionClock", "South"]
-    s.receive(text("task South ended: complete"), 2.0)
-    s.receive(text("task Home started"), 2.0)
+    says("task South ended: complete", TaskEnded("South", "complete"), 2.0)
+    says("task Home started", TaskStarted("Home"), 2.0)
     assert s.tasks == ["MissionClock", "Home"]
-    s.receive(text("MISSION ENDED (EndMission holds the vehicle)"), 3.0)
-    s.receive(text("helm offline: autopilot in MANUAL; select GUIDED t"), 3.0)
+    says("MISSION ENDED (EndMission holds the vehicle)", MissionEnded("EndMission"), 3.0)
+    says("helm offline: autopilot in MANUAL; select GUIDED t",
+         HelmState(False, "offline: autopilot in MANUAL; select GUIDED to hand over"), 3.0)
     assert s.helm.startswith("offline: autopilot in MANUAL")
     assert s.mission_ended == "MISSION ENDED (EndMission holds the vehicle)"
     assert len(s.texts) == 8  # the last few only
-    s.receive(text("helm reloaded: demo.moos: 6 tasks"), 4.0)
+    says("helm reloaded: demo.moos: 6 tasks", HelmReloaded("demo.moos: 6 tasks"), 4.0)
     assert s.tasks == [] and s.mission_ended is None
 
 
 def test_named_values_from_the_companion_are_shown():
     s = state_up("GUIDED", armed=True, now=0.0)
     s.receive(companion_heartbeat(), 1.0)
-    s.receive(text("helm ONLINE: autopilot armed in GUIDED"), 1.0)
+    s.receive(status(HelmState(True, "ONLINE: autopilot armed in GUIDED")), 1.0)
     for name, value in [("NAV_X", 12.34), ("NAV_Y", -5.0), ("NAV_HDG", 181.0),
                         ("NAV_SPEED", 1.5), ("DES_RUDDER", -3.25), ("DES_THRUST", 80.0)]:
         s.receive(named(name, value), 1.0)
@@ -469,7 +491,7 @@ def test_named_values_from_the_companion_are_shown():
     assert "desired    rudder -3.2   thrust +80.0\n" in screen + "\n"
     s.receive(named("DES_RUDDER", -0.01), 1.5)
     assert "desired    rudder +0.0   thrust +80.0" in "\n".join(render(s, 120))  # not -0.0
-    s.receive(text("helm offline: autopilot in HOLD; select GUIDED to"), 2.0)
+    s.receive(status(HelmState(False, "offline: autopilot in HOLD; select GUIDED to")), 2.0)
     assert "(the helm's last, not driving)" in "\n".join(render(s, 120))
 
 

@@ -22,6 +22,7 @@ from mavhelm.companion.serial_instruments import (
     instruments_from_mission,
     is_instrument_block,
 )
+from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
@@ -152,7 +153,10 @@ class Companion:
                                        timestamp=where["nav_log_timestamp"],
                                        opened_on=alog_opened_on)
                 navigator.log = nav_logs
-        apps.append(StatusConsole(bus, echo, statustext=bridge.send_statustext))
+        apps.append(StatusConsole(
+            bus, echo, statustext=bridge.send_statustext,
+            tunnel=lambda payload: bridge.send_tunnel(STATUS_PAYLOAD_TYPE, payload,
+                                                      target=(0, 0))))
         companion = cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
                         1.0 / helm.app_tick, plan, nav_logs)
         companion.community.apps.insert(0, HelmReloader(bus, companion.reload))

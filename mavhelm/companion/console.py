@@ -1,14 +1,18 @@
-"""What the operator reads on the console, and on the ground station: one line per event.
+"""What the operator reads on the console and the ground station, and what a console program
+reads over MAVLink: the companion's bus variables turned into status events, then rendered.
 
 A field engineer watching ``mavhelm run`` over ssh wants to know, without opening a log, that
 the link is up, which mode the autopilot is in, whether the helm is driving and why not, which
-task started or ended and how, and every warning. This app turns those bus variables into
-short lines; a line repeated within ``quiet_s`` is held back and counted, so a flapping link
-cannot scroll everything else away.
+task started or ended and how, and every warning. :class:`BusEvents` is the one place that
+knows which bus variable means which event (``status.py``); :class:`StatusConsole` renders each
+event three ways:
 
-The helm's own events (online/offline and why, tasks, warnings, errors, mission end) also go
-to the ground station as STATUSTEXT, with severities a ground station colours, at most
-``GCS_LINES_PER_S`` a second: the operator at the mode switch sees what the helm is doing.
+- a console line with the time (a line repeated within ``quiet_s`` is held back and counted,
+  so a flapping link cannot scroll everything else away);
+- the helm's events as STATUSTEXT, with severities a ground station colours, at most
+  ``GCS_LINES_PER_S`` a second, so the operator at the mode switch sees what the helm does;
+- every event as data in a TUNNEL (``status_wire.py``), and the whole state once a second,
+  for ``mavhelm remote`` and any other console that wants facts rather than English.
 """
 
 from __future__ import annotations
@@ -16,61 +20,132 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+from mavhelm.companion.status import (
+    Alert,
+    Armed,
+    AutopilotMode,
+    AutopilotText,
+    CompanionStatus,
+    Event,
+    Goal,
+    HandedBack,
+    HelmReloaded,
+    HelmState,
+    LinkNote,
+    LinkUp,
+    MissionEnded,
+    NavFailure,
+    NavSource,
+    NavWarning,
+    RemoteFlagPosted,
+    Severity,
+    TaskEnded,
+    TaskEvent,
+    TaskStarted,
+    ThirdPartyReply,
+)
+from mavhelm.companion.status_text import gcs_severity, line
+from mavhelm.companion.status_wire import encode
 from mavhelm.core.app import App
 from mavhelm.core.bus import Message
+from mavhelm.core.names import NAVIGATION_FAILURE
 
-SHOWN_AS: dict[str, Callable[[Message], str]] = {
-    "MAVLINK_LINK": lambda m: m.string,
-    "AP_LINK": lambda m: "autopilot link up" if m.value == 1.0 else "autopilot link DOWN",
-    "AP_MODE": lambda m: f"autopilot mode {m.string}",
-    "AP_ARMED": lambda m: "autopilot armed" if m.value == 1.0 else "autopilot disarmed",
-    "HELM_STATUS": lambda m: f"helm {m.string}",
-    "TASK_STARTED": lambda m: f"task {m.string} started",
-    "TASK_ENDED": lambda m: "task {} ended: {}".format(*m.string.partition(":")[::2]),
-    "MISSION_ENDED": lambda m: f"MISSION ENDED ({m.string} holds the vehicle)",
-    "HELM_HANDBACK_DONE": lambda m: f"vehicle handed back to the autopilot in {m.string}",
-    "HELM_RELOADED": lambda m: f"helm reloaded: {m.string}",
-    "REMOTE_FLAG": lambda m: f"flag {m.string} posted by the ground station",
-    "THIRDPARTY_REPLY": lambda m: f"third party {m.string}",
-    "HELM_GOAL": lambda m: m.string,
-    "TASK_EVENT": lambda m: f"task event {m.string}",
-    "AP_STATUSTEXT": lambda m: f"autopilot says: {m.string}",
+
+def _helm_state(m: Message) -> HelmState:
+    return HelmState(m.string.partition(":")[0].strip().upper() == "ONLINE", m.string)
+
+
+def _goal(m: Message) -> Goal:
+    owner, sep, goal = m.string.partition(" steers: ")
+    return Goal(owner, goal) if sep else Goal("", m.string)
+
+
+def _owner(m: Message) -> Goal:
+    return Goal("" if m.string == "none" else m.string, "")
+
+
+def _task_event(m: Message) -> TaskEvent:
+    task, _, text = m.string.partition(": ")
+    return TaskEvent(task, text)
+
+
+def _task_ended(m: Message) -> TaskEnded:
+    name, _, how = m.string.partition(":")
+    return TaskEnded(name, how)
+
+
+EVENT_OF: dict[str, Callable[[Message], Event]] = {
+    "MAVLINK_LINK": lambda m: LinkNote(m.string),
+    "AP_LINK": lambda m: LinkUp(m.value == 1.0),
+    "AP_MODE": lambda m: AutopilotMode(m.string),
+    "AP_ARMED": lambda m: Armed(m.value == 1.0),
+    "HELM_STATUS": _helm_state,
+    "TASK_STARTED": lambda m: TaskStarted(m.string),
+    "TASK_ENDED": _task_ended,
+    "TASK_EVENT": _task_event,
+    "HELM_RUDDER_OWNER": _owner,
+    "HELM_GOAL": _goal,
+    "MISSION_ENDED": lambda m: MissionEnded(m.string),
+    "HELM_HANDBACK_DONE": lambda m: HandedBack(m.string),
+    "HELM_RELOADED": lambda m: HelmReloaded(m.string),
+    "REMOTE_FLAG": lambda m: RemoteFlagPosted(m.string),
+    "THIRDPARTY_REPLY": lambda m: ThirdPartyReply(m.string),
+    "AP_STATUSTEXT": lambda m: AutopilotText(m.string),
+    "NAV_WARNING": lambda m: NavWarning(m.string),
+    NAVIGATION_FAILURE: lambda m: NavFailure(m.string),
 }
-"""Variables shown as they are posted, and how."""
+"""Bus variables that are status events, and which."""
 
 STATES = frozenset({"AP_LINK", "AP_MODE", "AP_ARMED", "HELM_STATUS"})
-"""Posted on every HEARTBEAT or tick: shown only when the value changes."""
+"""Posted on every HEARTBEAT or tick: an event only when the value changes."""
 
-ALERT_SUFFIXES = ("_WARNING", "_ERROR", "_REFUSED")
-"""Any variable ending so is shown as it is: ``LEG3_ERROR: starved …``."""
+ALERT_SEVERITY: tuple[tuple[str, Severity], ...] = (
+    ("_ERROR", Severity.ERROR), ("_WARNING", Severity.WARNING), ("_REFUSED", Severity.WARNING))
+"""Any other variable ending so is an alert: ``LEG3_ERROR: starved …``."""
 
-SEVERITY_NOTICE, SEVERITY_INFO = 5, 6
-SEVERITY_ERROR, SEVERITY_WARNING = 3, 4
-GCS_SEVERITY: dict[str, int] = {
-    "HELM_STATUS": SEVERITY_NOTICE,
-    "MISSION_ENDED": SEVERITY_NOTICE,
-    "HELM_HANDBACK_DONE": SEVERITY_NOTICE,
-    "HELM_RELOADED": SEVERITY_NOTICE,
-    "REMOTE_FLAG": SEVERITY_INFO,
-    "THIRDPARTY_REPLY": SEVERITY_INFO,
-    "HELM_GOAL": SEVERITY_INFO,
-    "TASK_EVENT": SEVERITY_WARNING,
-    "TASK_STARTED": SEVERITY_INFO,
-    "TASK_ENDED": SEVERITY_INFO,
-}
-"""The helm's events a ground station is told about (MAV_SEVERITY); alerts by suffix below."""
 GCS_LINES_PER_S = 4.0
+TUNNEL_ALERTS_PER_S = 4.0
+SNAPSHOT_PERIOD_S = 1.0
 
 
-def gcs_severity(name: str) -> int | None:
-    """The MAV_SEVERITY a variable goes to the ground station with, or None (console only)."""
-    if name in GCS_SEVERITY:
-        return GCS_SEVERITY[name]
-    if name.endswith("_ERROR"):
-        return SEVERITY_ERROR
-    if name.endswith(("_WARNING", "_REFUSED")):
-        return SEVERITY_WARNING
-    return None
+class BusEvents:
+    """Bus variables in, status events out (states only when they change)."""
+
+    def __init__(self) -> None:
+        self._states: dict[str, float | str] = {}
+
+    def of(self, msg: Message) -> Event | None:
+        if msg.name in STATES:
+            if self._states.get(msg.name) == msg.value:
+                return None
+            self._states[msg.name] = msg.value
+        make = EVENT_OF.get(msg.name)
+        if make is not None:
+            return make(msg)
+        if msg.name.startswith("NAV_") and msg.name.endswith("_SOURCE"):
+            return NavSource(msg.name[4:-7], msg.string)
+        for suffix, severity in ALERT_SEVERITY:
+            if msg.name.endswith(suffix):
+                return Alert(msg.name, msg.string, severity)
+        return None
+
+
+class TokenBucket:
+    """A burst of ``rate`` sends, then ``rate`` a second."""
+
+    def __init__(self, rate: float) -> None:
+        self.rate = rate
+        self._budget = rate
+        self._time: float | None = None
+
+    def take(self, now: float) -> bool:
+        if self._time is not None:
+            self._budget = min(self.rate, self._budget + (now - self._time) * self.rate)
+        self._time = now
+        if self._budget < 1.0:
+            return False
+        self._budget -= 1.0
+        return True
 
 
 def _clock_text(now: float) -> str:
@@ -81,22 +156,28 @@ def _clock_text(now: float) -> str:
 
 
 class StatusConsole(App):
-    """Prints the events in ``SHOWN_AS`` and every ``*_WARNING``/``*_ERROR``/``*_REFUSED``,
-    and sends the helm's to the ground station through ``statustext(text, severity)``."""
+    """Turns the bus into status events, keeps the state they build (``status``), prints
+    them through ``echo``, sends the helm's to the ground station through
+    ``statustext(text, severity)`` and every one, with a snapshot each second, through
+    ``tunnel(payload)``."""
 
     name = "console"
 
     def __init__(self, bus, echo: Callable[[str], None] | None = print, quiet_s: float = 5.0,
-                 statustext: Callable[[str, int], None] | None = None) -> None:
+                 statustext: Callable[[str, int], None] | None = None,
+                 tunnel: Callable[[bytes], None] | None = None) -> None:
         super().__init__(bus)
         self.echo = echo
         self.statustext = statustext
+        self.tunnel = tunnel
         self.quiet_s = quiet_s
+        self.status = CompanionStatus()
+        self._events = BusEvents()
         self._last_shown: dict[str, float] = {}
         self._held: dict[str, int] = {}
-        self._states: dict[str, float | str] = {}
-        self._gcs_budget = GCS_LINES_PER_S
-        self._gcs_time: float | None = None
+        self._gcs = TokenBucket(GCS_LINES_PER_S)
+        self._tunnel_alerts = TokenBucket(TUNNEL_ALERTS_PER_S)
+        self._next_snapshot: float | None = None
         self.gcs_dropped = 0
 
     def subscriptions(self) -> set[str]:
@@ -104,39 +185,51 @@ class StatusConsole(App):
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         for msg in mail:
-            if msg.name in STATES:
-                if self._states.get(msg.name) == msg.value:
-                    continue
-                self._states[msg.name] = msg.value
-            text = self.describe(msg)
-            if text is None:
-                continue
-            if self._show(text, now) and self.statustext is not None:
-                severity = gcs_severity(msg.name)
-                if severity is not None:
-                    self._to_gcs(text, severity, now)
+            event = self._events.of(msg)
+            if event is not None:
+                self.publish(event, now)
 
-    def _to_gcs(self, text: str, severity: int, now: float) -> None:
-        """A token bucket: a burst of GCS_LINES_PER_S lines, then that many a second."""
-        if self._gcs_time is not None:
-            self._gcs_budget = min(GCS_LINES_PER_S,
-                                   self._gcs_budget + (now - self._gcs_time) * GCS_LINES_PER_S)
-        self._gcs_time = now
-        if self._gcs_budget < 1.0:
-            self.gcs_dropped += 1
+    def publish(self, event: Event, now: float) -> None:
+        """One event: into the state, onto the console, to the ground station."""
+        self.status = self.status.apply(event)
+        text = line(event)
+        shown = False
+        if text is not None:
+            shown = self._show(text, now)
+            severity = gcs_severity(event)
+            if shown and severity is not None and self.statustext is not None:
+                self._to_gcs(text, severity, now)
+        if self.tunnel is not None and self._tunnelled(event, shown, now):
+            self.tunnel(encode(event))
+
+    def iterate(self, now: float) -> None:
+        if self.tunnel is None:
             return
-        self._gcs_budget -= 1.0
-        assert self.statustext is not None
-        self.statustext(text, severity)
+        if self._next_snapshot is None or now >= self._next_snapshot:
+            self._next_snapshot = now + SNAPSHOT_PERIOD_S
+            self.tunnel(encode(self.status.snapshot()))
 
     @staticmethod
     def describe(msg: Message) -> str | None:
-        shown = SHOWN_AS.get(msg.name)
-        if shown is not None:
-            return shown(msg)
-        if msg.name.endswith(ALERT_SUFFIXES):
-            return f"{msg.name}: {msg.string}"
-        return None
+        """A bus variable's line, as the console would print it (states not deduplicated)."""
+        event = BusEvents().of(msg)
+        return None if event is None else line(event)
+
+    def _tunnelled(self, event: Event, shown: bool, now: float) -> bool:
+        """Every state change; alerts as shown on the console, within their own rate; not the
+        autopilot's texts (a ground station hears those from the autopilot)."""
+        if isinstance(event, AutopilotText):
+            return False
+        if isinstance(event, (Alert, NavWarning)):
+            return shown and self._tunnel_alerts.take(now)
+        return True
+
+    def _to_gcs(self, text: str, severity: int, now: float) -> None:
+        if not self._gcs.take(now):
+            self.gcs_dropped += 1
+            return
+        assert self.statustext is not None
+        self.statustext(text, severity)
 
     def _show(self, text: str, now: float) -> bool:
         """Print the line unless it repeats one shown within ``quiet_s``; True if shown."""

@@ -816,6 +816,13 @@ class MavlinkBridge:
     def close(self) -> None:
         self.link.close()
 
+    def send_tunnel(self, payload_type: int, payload: bytes,
+                    target: tuple[int, int] = (0, 0)) -> None:
+        """A TUNNEL message of ``payload_type`` to ``target`` ((0, 0): every listener)."""
+        data = bytes(payload)[:MAX_LENGTH]
+        self.link.mav.tunnel_send(target[0], target[1], payload_type, len(data),
+                                  data.ljust(MAX_LENGTH, b"\0"))
+
 
 class AutopilotInput(App):
     name = "iMAVLink"
