@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import threading
 from pathlib import Path
 
 from mavhelm.core.errors import LocatedError
@@ -24,7 +25,6 @@ def _run(args: argparse.Namespace) -> int:
                                 echo=lambda line: print(line, flush=True))
     print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
           flush=True)
-    signal.signal(signal.SIGTERM, _stop)
     next_tick = clock.now()
     try:
         while True:
@@ -44,8 +44,20 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _stop(signum, frame) -> None:
-    """SIGTERM (systemd, a test harness) stops the companion as Ctrl-C does: logs closed."""
+    """SIGTERM (systemd, a test harness) stops a command as Ctrl-C does: logs closed."""
     raise KeyboardInterrupt
+
+
+def _stop_on_signals() -> None:
+    """SIGINT and SIGTERM stop every command cleanly, whatever the parent left them as.
+
+    A shell without job control starts background commands with SIGINT ignored, and Python
+    then never raises KeyboardInterrupt: ``kill -INT`` on a companion started by a script or
+    ``nohup ... &`` would be ignored and the logs never closed."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _stop)
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -258,6 +270,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    _stop_on_signals()
     try:
         return args.func(args)
     except LocatedError as exc:
@@ -269,6 +282,9 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"mavhelm: cannot open the autopilot link: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("mavhelm: stopped while starting", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
