@@ -159,6 +159,8 @@ class Lockstep:
     def step(self) -> float:
         now = self.clock.advance(self.dt)
         self.sim.step(now)
+        for port in self.sim.serial_sensors:
+            port.settle()
         for peer in self.peers:
             self._deliver_to_peer(peer)
         for peer in self.peers:

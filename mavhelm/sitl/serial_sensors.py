@@ -20,8 +20,12 @@ Every random number comes from ``scenario.rng(port name)`` (noise) and
 
 from __future__ import annotations
 
+import array
+import fcntl
 import math
 import os
+import termios
+import time
 import tty
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -503,6 +507,9 @@ class SensorPort:
         self.stats["written"] += len(lines)
         return len(data)
 
+    def settle(self) -> None:
+        """Lockstep: return once what was written is readable (in memory it always is)."""
+
     def close(self) -> None:
         """Nothing to release in memory; ptys override."""
 
@@ -511,6 +518,12 @@ class SensorPort:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+PTY_SETTLE_S = 1.0
+"""Longest wall-time wait for a pty's bytes to reach its slave side (lockstep only)."""
+PTY_READ_BUFFER = 4095
+"""A pty's line-discipline buffer: more than this waits in the kernel until the reader reads."""
 
 
 class PtySerialPort(SensorPort):
@@ -538,6 +551,7 @@ class PtySerialPort(SensorPort):
         os.set_blocking(self._master, False)
         self.slave_path: str = os.ttyname(self._slave)
         self._partial = b""
+        self._readable_at_least: int | None = None
         self.stats["rx_bytes"] = 0
         self.stats["bytes"] = 0
 
@@ -549,6 +563,7 @@ class PtySerialPort(SensorPort):
 
     def _write(self, lines: list[bytes]) -> int:
         self._drain_input()
+        unread = self._unread() if self._readable_at_least is None else 0
         if self.keep_output:
             self.output += b"".join(lines)
         total = 0
@@ -568,7 +583,35 @@ class PtySerialPort(SensorPort):
                 self.stats["written"] += 1
                 self._partial = line[n:]
         self.stats["bytes"] += total
+        self._readable_at_least = (unread if self._readable_at_least is None
+                                   else self._readable_at_least) + total
         return total
+
+    def _unread(self) -> int:
+        """Bytes waiting in the slave's read buffer (the companion has not read them yet)."""
+        if self._slave < 0:
+            return 0
+        count = array.array("i", [0])
+        try:
+            fcntl.ioctl(self._slave, termios.FIONREAD, count)
+        except OSError:
+            return 0
+        return count[0]
+
+    def settle(self, timeout_s: float = PTY_SETTLE_S) -> None:
+        """Wait (briefly, in wall time) until the bytes written this step have reached the slave.
+
+        The kernel hands a pty's bytes from master to slave on a worker thread; on a loaded
+        machine that can take several of the lockstep's simulated ticks, and a reader would then
+        stamp a heading ticks late. Lockstep calls this after each simulator step so that a line
+        is readable in the step that wrote it, as on a real UART."""
+        want, self._readable_at_least = self._readable_at_least, None
+        if want is None:
+            return
+        want = min(want, PTY_READ_BUFFER)
+        deadline = time.monotonic() + timeout_s
+        while self._unread() < want and time.monotonic() < deadline:
+            time.sleep(0.0005)
 
     def _drain_input(self) -> None:
         while True:
