@@ -15,7 +15,7 @@ import tty
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin

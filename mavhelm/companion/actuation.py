@@ -98,6 +98,10 @@ class Guided(Actuation):
         return {"AP_CMD_YAW_RATE": yaw_rate, "AP_CMD_THRUST": fraction}
 
 
+DEFAULT_STEER_CHANNEL = 1
+DEFAULT_THROTTLE_CHANNEL = 3
+"""ArduPilot's default RCMAP_ROLL and RCMAP_THROTTLE."""
+
 GCS_SYSID_PARAMS = ("MAV_GCS_SYSID", "SYSID_MYGCS")
 """ArduPilot 4.7+ names it MAV_GCS_SYSID; older firmware SYSID_MYGCS."""
 
@@ -116,7 +120,8 @@ class RcOverride(Actuation):
 
     def wanted_params(self) -> tuple[str, ...]:
         names = ["RCMAP_ROLL", "RCMAP_THROTTLE", *GCS_SYSID_PARAMS]
-        for ch in (1, 3):  # the default RCMAP; the mapped channels are asked for once known
+        # the default RCMAP's channels; the mapped channels are asked for once known
+        for ch in (DEFAULT_STEER_CHANNEL, DEFAULT_THROTTLE_CHANNEL):
             names += [f"RC{ch}_MIN", f"RC{ch}_TRIM", f"RC{ch}_MAX"]
         return tuple(names)
 
@@ -137,6 +142,9 @@ class RcOverride(Actuation):
         return missing
 
     def refusal(self, view: AutopilotView) -> str | None:
+        clash = self.engage_clash(view.params)
+        if clash is not None:
+            return clash
         missing = self.missing(view.params)
         if missing:
             return f"waiting for the autopilot's parameters {', '.join(missing)}"
@@ -155,6 +163,20 @@ class RcOverride(Actuation):
         if pwm < self.engage_pwm:
             return (f"engage switch RC{self.engage_channel} is low ({pwm} < "
                     f"{self.engage_pwm})")
+        return None
+
+    def engage_clash(self, params: Mapping[str, float]) -> str | None:
+        """Why the autopilot's RCMAP forbids engaging: steering or throttle on the engage
+        channel, where the override would hold the very switch that engages the helm."""
+        channels = self.channels(params)
+        if channels is None:
+            return None
+        for what, param, ch in (("steering", "RCMAP_ROLL", channels[0]),
+                                ("throttle", "RCMAP_THROTTLE", channels[1])):
+            if ch == self.engage_channel:
+                return (f"the autopilot's {param} = {ch} puts {what} on the engage switch "
+                        f"RC{ch}: the RC override would drive the switch that engages the "
+                        "helm; move EngageChannel in iMAVLink (or the autopilot's RCMAP)")
         return None
 
     def pwm(self, params: Mapping[str, float], channel: int, fraction: float) -> int:

@@ -8,6 +8,7 @@ was observed, so they are tested without a vehicle; ``observe`` is the thin I/O 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -16,9 +17,9 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS
+from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
 from mavhelm.companion.link import AutopilotLink
-from mavhelm.companion.mavlink_bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
-from mavhelm.core.geodesy import Origin
+from mavhelm.core.geodesy import Origin, lat_lon_e7
 
 VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover"}
 
@@ -185,7 +186,8 @@ def _record(seen: Observed, msg: mavlink.MAVLink_message, config: BridgeConfig) 
     elif kind == "GPS_RAW_INT":
         seen.gps_fix = msg.fix_type
         if msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:
-            seen.position = (msg.lat * 1e-7, msg.lon * 1e-7)
+            with contextlib.suppress(ValueError):  # not on the earth: not a position
+                seen.position = lat_lon_e7(msg.lat, msg.lon)
     elif kind == "EKF_STATUS_REPORT":
         seen.ekf_flags = msg.flags
     elif kind == "PARAM_VALUE":

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mavhelm.companion.alog import AlogLogger, log_dir
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.serial_instruments import (
     SerialInstrument,
