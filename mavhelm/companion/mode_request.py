@@ -46,6 +46,7 @@ class ModeRequest:
     refused: int | None = None
     """The MAV_RESULT of a refusing COMMAND_ACK."""
     confirmed: bool = False
+    failed: bool = False
     retry_refused: bool = False
     number: int = field(init=False)
 
@@ -60,20 +61,27 @@ class ModeRequest:
         """What to do at ``now``: send (counted as a try), wait, or the outcome."""
         if self.confirmed:
             return Step.CONFIRMED
-        if self.refused is not None and not self.retry_refused:
+        if self.failed or (self.refused is not None and not self.retry_refused):
+            self.failed = True
             return Step.FAILED
         if now < self.next_at:
             return Step.WAIT
         if self.sent >= self.tries:
+            self.failed = True
             return Step.FAILED
         self.sent += 1
         self.next_at = now + self.retry_s
         return Step.SEND
 
+    @property
+    def done(self) -> bool:
+        """Confirmed or failed: settled, nothing more will be sent."""
+        return self.confirmed or self.failed
+
     def heartbeat(self, mode: str | None) -> bool:
         """The autopilot's HEARTBEAT shows ``mode``; True the first time it is the one asked
-        (also after a refusal: the mode was taken after all)."""
-        if self.confirmed or mode != self.mode:
+        (also after a refusal while still trying: the mode was taken after all)."""
+        if self.done or mode != self.mode:
             return False
         self.confirmed = True
         return True

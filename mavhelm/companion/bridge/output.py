@@ -69,8 +69,7 @@ class OutputPath:
                 self.request_handback(m.string)
             elif m.name == REPLY_VARIABLE:
                 self.send_reply(m.string)
-        if self.handback is not None:
-            self.drive_handback(now)
+        self.drive_handback(now)
         if not bridge.online:
             for name in ("DES_RUDDER", "DES_THRUST"):
                 self.named_values.pop(name, None)  # not driving: no demand to show
@@ -128,13 +127,13 @@ class OutputPath:
         """Ask (again) for the mode until the HEARTBEAT shows it, it is refused, or the tries
         are spent; a failure is said once."""
         hb = self.handback
-        assert hb is not None
+        if hb is None or hb.done:
+            return
         step = hb.step(now)
         if step is Step.SEND:
             config = self.bridge.config
             self.bridge.link.mav.send(hb.message(config.target_system, config.target_component))
         elif step is Step.FAILED:
-            self.handback = None
             said = self.bridge.state.last_statustext
             said = f"; it said: {said}" if said else ""
             self.bridge.output.notify(
