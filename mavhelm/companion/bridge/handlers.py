@@ -14,6 +14,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
+from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import ROVER_MODES
@@ -24,11 +25,10 @@ from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
 if TYPE_CHECKING:
     from mavhelm.companion.bridge.facade import MavlinkBridge
 
-Message = mavlink.MAVLink_message
 Post = Callable[[str, float | str], None]
 """Posts a variable with the message's one time stamp."""
-Handler = Callable[["MavlinkBridge", Message, float, Post], None]
-CompanionHandler = Callable[["MavlinkBridge", Message], bool]
+Handler = Callable[["MavlinkBridge", Msg, float, Post], None]
+CompanionHandler = Callable[["MavlinkBridge", Msg], bool]
 
 CMD_RESTART_HELM = mavlink.MAV_CMD_USER_1
 """COMMAND_LONG to the companion: re-read the mission file (spec RESTART_HELM)."""
@@ -41,7 +41,7 @@ FAR_FROM_ORIGIN_M = 5000.0
 
 # -- addressed to the companion ------------------------------------------------------------
 
-def on_command_long(bridge: MavlinkBridge, msg: Message) -> bool:
+def on_command_long(bridge: MavlinkBridge, msg: Msg) -> bool:
     """A ground station's command to the companion (ArduPilot routes COMMAND_LONG for our
     system and component to our link): USER_1 restarts the helm, USER_2 posts a remote
     flag. Answered with COMMAND_ACK like any MAVLink command."""
@@ -70,7 +70,7 @@ def _remote_flag(bridge: MavlinkBridge, param1: float, src: str) -> int:
     return mavlink.MAV_RESULT_ACCEPTED
 
 
-def on_tunnel(bridge: MavlinkBridge, msg: Message) -> bool:
+def on_tunnel(bridge: MavlinkBridge, msg: Msg) -> bool:
     """A guest's third-party request in a TUNNEL (its reply goes back the same way, to its
     system and component); another payload type is not ours to take."""
     if msg.payload_type != TUNNEL_PAYLOAD_TYPE:
@@ -91,7 +91,7 @@ TO_COMPANION: dict[str, CompanionHandler] = {
 
 # -- from the autopilot -------------------------------------------------------------------
 
-def on_heartbeat(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
         return
     state = bridge.state
@@ -105,7 +105,7 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Message, now: float, post: Post) ->
     post("AP_ARMED", 1.0 if state.armed else 0.0)
 
 
-def on_gps_raw_int(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     post("GPS_FIX", float(msg.fix_type))
     if msg.fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
         return
@@ -130,7 +130,7 @@ def _check_distance(bridge: MavlinkBridge, x: float, y: float) -> None:
                             "wrong origin?")
 
 
-def on_attitude(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_attitude(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     if not all(math.isfinite(v) for v in (msg.roll, msg.pitch, msg.yaw, msg.yawspeed)):
         raise ValueError("non-finite attitude")
     post("INS_YAW", 0.0 - msg.yaw)
@@ -140,7 +140,7 @@ def on_attitude(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> 
     post("INS_YAW_VEL", 0.0 - msg.yawspeed)
 
 
-def on_global_position_int(bridge: MavlinkBridge, msg: Message, now: float,
+def on_global_position_int(bridge: MavlinkBridge, msg: Msg, now: float,
                            post: Post) -> None:
     """The autopilot's EKF position, only while it says it has an absolute one."""
     if bridge.state.ekf_position_ok is False or (msg.lat == 0 and msg.lon == 0):
@@ -154,20 +154,20 @@ def on_global_position_int(bridge: MavlinkBridge, msg: Message, now: float,
         post("AP_YAW", -math.radians(msg.hdg / 100.0))
 
 
-def on_distance_sensor(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_distance_sensor(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     reading = distance_reading(msg)
     if reading is not None:
         post("AP_ALTITUDE" if msg.orientation == DOWNWARD
              else f"AP_DISTANCE_{int(msg.orientation)}", reading)
 
 
-def on_wheel_distance(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_wheel_distance(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     speed = bridge.wheels.speed(int(msg.time_usec), int(msg.count), list(msg.distance))
     if speed is not None:
         post("WHEEL_VX_BODY", speed)
 
 
-def on_simstate(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_simstate(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     """A simulator's true pose, for judging the navigator on SITL (never steered by)."""
     if msg.lat == 0 and msg.lng == 0:
         return
@@ -180,23 +180,23 @@ def on_simstate(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> 
     post("TRUTH_HEADING", math.degrees(msg.yaw) % 360.0)
 
 
-def on_ekf_status_report(bridge: MavlinkBridge, msg: Message, now: float,
+def on_ekf_status_report(bridge: MavlinkBridge, msg: Msg, now: float,
                          post: Post) -> None:
     bridge.state.ekf_position_ok = bool(msg.flags & mavlink.EKF_POS_HORIZ_ABS)
 
 
-def on_param_value(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_param_value(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     name = msg.param_id.rstrip("\x00") if isinstance(msg.param_id, str) else ""
     if name and math.isfinite(msg.param_value):
         bridge.state.view.params[name] = float(msg.param_value)
 
 
-def on_rc_channels(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_rc_channels(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     count = max(0, min(18, int(msg.chancount)))
     bridge.state.view.rc = [int(getattr(msg, f"chan{i}_raw")) for i in range(1, count + 1)]
 
 
-def on_command_ack(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_command_ack(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     if (msg.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
             and msg.result == mavlink.MAV_RESULT_ACCEPTED):
         bridge.state.streams_acked = True
@@ -210,7 +210,7 @@ def on_command_ack(bridge: MavlinkBridge, msg: Message, now: float, post: Post) 
     post("AP_COMMAND_ACK", f"command={msg.command},result={msg.result}")
 
 
-def on_statustext(bridge: MavlinkBridge, msg: Message, now: float, post: Post) -> None:
+def on_statustext(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     bridge.state.last_statustext = msg.text
     post("AP_STATUSTEXT", msg.text)
 
@@ -233,7 +233,7 @@ FROM_AUTOPILOT: dict[str, Handler] = {
 
 # -- routing ------------------------------------------------------------------------------
 
-def handle(bridge: MavlinkBridge, msg: Message, now: float) -> None:
+def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     """Route one message heard at ``now`` to its handler."""
     kind = msg.get_type()
     config = bridge.config

@@ -74,9 +74,9 @@ class OutputPath:
             for name in ("DES_RUDDER", "DES_THRUST"):
                 self.named_values.pop(name, None)  # not driving: no demand to show
             return
-        self.drive({m.name: m.value for m in mail if m.is_double}, now)
+        self.drive({m.name: m.double for m in mail if m.is_double}, now)
 
-    def drive(self, desired: dict[str, float | str], now: float) -> None:
+    def drive(self, desired: dict[str, float], now: float) -> None:
         """One online tick's demands to the autopilot: servos, then rudder and thrust."""
         bridge = self.bridge
         # an autopilot clock moves while the tick runs: the refresh is timed, and logged, by
