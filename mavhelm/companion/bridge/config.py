@@ -212,8 +212,10 @@ def check_rc_channels(cfg: BridgeConfig, block: Block) -> None:
 
 
 def _clash(block: Block, names: tuple[str, str], channel: int | None) -> MissionError:
-    """The refusal of two settings on one channel, at the line the mission wrote."""
-    first, second = names if block.entry(names[0]) is not None else names[::-1]
+    """The refusal of two settings on one channel, at the later line the mission wrote."""
+    given = [(entry.line, name) for name in names if (entry := block.entry(name)) is not None]
+    first = max(given)[1] if given else names[0]
+    second = names[1] if first == names[0] else names[0]
     note = ("" if block.entry(second) is not None
             else " by default (ArduPilot's default RCMAP: steering 1, throttle 3)")
     why = ("the RC override would drive the switch that engages the helm"
