@@ -126,3 +126,12 @@ def _private_reads(path: Path) -> list[str]:
 def test_no_private_attribute_is_read_across_objects_in_companion():
     files = sorted(COMPANION.rglob("*.py"))
     assert [hit for f in files for hit in _private_reads(f)] == []
+
+
+def test_replace_copies_with_changes():
+    config = BridgeConfig(connect="tcp:127.0.0.1:5760")
+    moved = config.replace(connect="udp:127.0.0.1:14550")
+    assert moved.connect == "udp:127.0.0.1:14550" and config.connect == "tcp:127.0.0.1:5760"
+    assert moved.streams == config.streams
+    with pytest.raises(TypeError):
+        config.replace(conect="x")

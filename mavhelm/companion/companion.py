@@ -177,7 +177,7 @@ class Companion:
         helm.nav = self.helm.nav
         apps = self.community.apps
         apps[apps.index(self.helm)] = helm
-        link = dataclasses.replace(plan.link, connect=self.plan.link.connect)  # --connect kept
+        link = plan.link.replace(connect=self.plan.link.connect)  # --connect kept
         kept = [what for what, same in (("iMAVLink", link == self.plan.link),
                                         ("origin", plan.origin == self.plan.origin),
                                         ("pNav", _entries(plan.mission, "pNav")

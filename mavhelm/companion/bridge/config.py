@@ -173,6 +173,15 @@ class BridgeConfig:
         self.streams = dict(DEFAULT_STREAMS if streams is None else streams)
         self.streams.update(dict(self.stream_rates))
 
+    def replace(self, **changes: Any) -> BridgeConfig:
+        """A copy with ``changes`` (attribute names) applied."""
+        copy = object.__new__(BridgeConfig)
+        unknown = sorted(set(changes) - set(vars(self)))
+        if unknown:
+            raise TypeError(f"BridgeConfig has no setting {', '.join(unknown)}")
+        vars(copy).update(vars(self), **changes)
+        return copy
+
     def __getattr__(self, name: str) -> Any:
         """Only reached for a name that is not an attribute: a setting added to the schema
         without an annotation here is still read (typed Any)."""
