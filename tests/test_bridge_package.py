@@ -92,8 +92,8 @@ def connected_bridge() -> tuple[MavlinkBridge, Capture]:
 
 def test_send_tunnel_sends_one_tunnel_message():
     bridge, transport = connected_bridge()
-    bridge.send_tunnel(32802, b"status", (255, 190))
-    bridge.send_tunnel(32802, b"all")
+    assert bridge.send_tunnel(32802, b"status", (255, 190))
+    assert bridge.send_tunnel(32802, b"all")
     msgs = mavlink.MAVLink(None).parse_buffer(transport.data)
     assert [m.get_type() for m in msgs] == ["TUNNEL", "TUNNEL"]
     first, second = msgs
@@ -107,9 +107,11 @@ def test_send_tunnel_sends_one_tunnel_message():
     (70000, b"x", (0, 0)), (-1, b"x", (0, 0)), (1, b"x" * 129, (0, 0)), (1, b"x", (256, 0))])
 def test_send_tunnel_refuses_what_mavlink_cannot_carry(payload_type, payload, target):
     bridge, transport = connected_bridge()
-    with pytest.raises(ValueError):
-        bridge.send_tunnel(payload_type, payload, target)
+    bridge.bus.subscribe("test", ["MAVLINK_OUTPUT_REFUSED"])
+    assert bridge.send_tunnel(payload_type, payload, target) is False
     assert transport.data == b""
+    refused = bridge.bus.fetch("test")
+    assert len(refused) == 1 and refused[0].string.startswith("TUNNEL not sent: ")
 
 
 def _private_reads(path: Path) -> list[str]:

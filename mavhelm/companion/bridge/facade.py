@@ -148,9 +148,10 @@ class MavlinkBridge:
         self.send_path.send_reply(reply)
 
     def send_tunnel(self, payload_type: int, payload: bytes,
-                    target: tuple[int, int] = (0, 0)) -> None:
-        """A TUNNEL (at most 128 bytes) to ``target`` (system, component; (0, 0) for all)."""
-        self.send_path.send_tunnel(payload_type, payload, target)
+                    target: tuple[int, int] = (0, 0)) -> bool:
+        """A TUNNEL (at most 128 bytes) to ``target`` (system, component; (0, 0) for all);
+        False, and ``MAVLINK_OUTPUT_REFUSED`` posted, if MAVLink cannot carry it."""
+        return self.send_path.send_tunnel(payload_type, payload, target)
 
     def close(self) -> None:
         self.link.close()

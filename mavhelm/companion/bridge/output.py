@@ -161,14 +161,21 @@ class OutputPath:
         self.send_tunnel(TUNNEL_PAYLOAD_TYPE, reply.encode("utf-8")[:MAX_LENGTH], guest)
 
     def send_tunnel(self, payload_type: int, payload: bytes,
-                    target: tuple[int, int] = (0, 0)) -> None:
-        """A TUNNEL message (``target`` (0, 0): broadcast). A payload type outside uint16 or a
-        payload over 128 bytes is a caller's bug: ValueError, nothing sent."""
+                    target: tuple[int, int] = (0, 0)) -> bool:
+        """A TUNNEL message (``target`` (0, 0): broadcast); True if sent. A payload type
+        outside uint16, a payload over 128 bytes or a target outside 0-255 is not sent but
+        posted as ``MAVLINK_OUTPUT_REFUSED``: a caller's mistake must not stop the companion."""
+        why = None
         if not 0 <= payload_type <= 0xFFFF:
-            raise ValueError(f"TUNNEL payload type {payload_type} is not a uint16")
-        if len(payload) > TUNNEL_MAX:
-            raise ValueError(f"TUNNEL payload of {len(payload)} bytes (at most {TUNNEL_MAX})")
-        if not all(0 <= v <= 255 for v in target):
-            raise ValueError(f"TUNNEL target {target} is not a system, component pair")
+            why = f"payload type {payload_type} is not a uint16"
+        elif len(payload) > TUNNEL_MAX:
+            why = f"{len(payload)} bytes of payload (at most {TUNNEL_MAX})"
+        elif len(target) != 2 or not all(0 <= v <= 255 for v in target):
+            why = f"target {target} is not a system, component pair"
+        if why is not None:
+            self.refused_outputs += 1
+            self.bridge.output.notify("MAVLINK_OUTPUT_REFUSED", f"TUNNEL not sent: {why}")
+            return False
         self.bridge.link.mav.tunnel_send(target[0], target[1], payload_type, len(payload),
                                          payload.ljust(TUNNEL_MAX, b"\0"))
+        return True
