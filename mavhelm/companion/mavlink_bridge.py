@@ -1,13 +1,6 @@
-"""Names of ``mavhelm.companion.bridge`` for ``remote`` and ``serial_instruments``, whose own
-imports move to the package when those modules are next changed; nothing else imports this."""
+"""Every public name of ``mavhelm.companion.bridge``, under the module path that code written
+before the package (``remote``, ``serial_instruments``) still imports; nothing in this tree
+imports it otherwise, and it goes once those imports name the package."""
 
-from mavhelm.companion.bridge import (
-    CMD_RESTART_HELM,
-    COMPANION_COMPONENT,
-    FAR_FROM_ORIGIN_M,
-    ROVER_MODE_NUMBERS,
-    ROVER_MODES,
-)
-
-__all__ = ["CMD_RESTART_HELM", "COMPANION_COMPONENT", "FAR_FROM_ORIGIN_M",
-           "ROVER_MODE_NUMBERS", "ROVER_MODES"]
+from mavhelm.companion.bridge import *  # noqa: F403
+from mavhelm.companion.bridge import __all__  # noqa: F401
