@@ -137,3 +137,27 @@ def test_the_simulator_with_throttle_on_the_engage_channel_never_engages(tmp_pat
         assert run.companion_link.received["RC_CHANNELS_OVERRIDE"] == 0
         assert any("RCMAP_THROTTLE = 7 puts throttle on the engage switch" in text
                    for text in sent), "the ground station was told (STATUSTEXT)"
+
+
+def test_mavhelm_check_fails_an_rcmap_on_the_engage_channel():
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from mavhelm.companion.bridge import BridgeConfig
+    from mavhelm.companion.check import Observed, checklist
+    from mavhelm.core.geodesy import Origin
+
+    origin = Origin(56.412, -5.476)
+    config = BridgeConfig(actuation="rc_override", engage_channel=7, system_id=255)
+    seen = Observed(connected=True, heard=set(config.streams), gps_fix=6,
+                    position=origin.to_global(40.0, 30.0), ekf_flags=mavlink.EKF_POS_HORIZ_ABS,
+                    params={"WP_SPEED": 2.0, "MAV_GCS_SYSID": 255.0, "RCMAP_ROLL": 1.0,
+                            "RCMAP_THROTTLE": 7.0},
+                    heartbeat=mavlink.MAVLink_heartbeat_message(
+                        mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                        0x41, 0, 4, 3))
+    fails = [str(line) for line in checklist(seen, config, origin) if line.status == "FAIL"]
+    assert fails == ["FAIL  the autopilot's RCMAP_THROTTLE = 7 puts throttle on the engage "
+                     "switch RC7: the RC override would drive the switch that engages the "
+                     "helm; move EngageChannel in iMAVLink (or the autopilot's RCMAP)"], fails
+    seen.params["RCMAP_THROTTLE"] = 3.0
+    assert not [line for line in checklist(seen, config, origin) if line.status == "FAIL"]

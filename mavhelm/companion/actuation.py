@@ -106,6 +106,18 @@ GCS_SYSID_PARAMS = ("MAV_GCS_SYSID", "SYSID_MYGCS")
 """ArduPilot 4.7+ names it MAV_GCS_SYSID; older firmware SYSID_MYGCS."""
 
 
+def engage_clash(params: Mapping[str, float], engage_channel: int) -> str | None:
+    """Why the autopilot's RCMAP forbids engaging: steering or throttle on the engage
+    channel, where the override would hold the very switch that engages the helm."""
+    for what, param in (("steering", "RCMAP_ROLL"), ("throttle", "RCMAP_THROTTLE")):
+        if param in params and int(params[param]) == engage_channel:
+            return (f"the autopilot's {param} = {engage_channel} puts {what} on the engage "
+                    f"switch RC{engage_channel}: the RC override would drive the switch that "
+                    "engages the helm; move EngageChannel in iMAVLink (or the autopilot's "
+                    "RCMAP)")
+    return None
+
+
 @dataclass
 class RcOverride(Actuation):
     target_system: int
@@ -142,7 +154,7 @@ class RcOverride(Actuation):
         return missing
 
     def refusal(self, view: AutopilotView) -> str | None:
-        clash = self.engage_clash(view.params)
+        clash = engage_clash(view.params, self.engage_channel)
         if clash is not None:
             return clash
         missing = self.missing(view.params)
@@ -163,20 +175,6 @@ class RcOverride(Actuation):
         if pwm < self.engage_pwm:
             return (f"engage switch RC{self.engage_channel} is low ({pwm} < "
                     f"{self.engage_pwm})")
-        return None
-
-    def engage_clash(self, params: Mapping[str, float]) -> str | None:
-        """Why the autopilot's RCMAP forbids engaging: steering or throttle on the engage
-        channel, where the override would hold the very switch that engages the helm."""
-        channels = self.channels(params)
-        if channels is None:
-            return None
-        for what, param, ch in (("steering", "RCMAP_ROLL", channels[0]),
-                                ("throttle", "RCMAP_THROTTLE", channels[1])):
-            if ch == self.engage_channel:
-                return (f"the autopilot's {param} = {ch} puts {what} on the engage switch "
-                        f"RC{ch}: the RC override would drive the switch that engages the "
-                        "helm; move EngageChannel in iMAVLink (or the autopilot's RCMAP)")
         return None
 
     def pwm(self, params: Mapping[str, float], channel: int, fraction: float) -> int:
