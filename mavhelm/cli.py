@@ -61,10 +61,10 @@ def _stop_on_signals() -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
+    from mavhelm.companion.bridge import BridgeConfig
     from mavhelm.companion.check import checklist, observe
     from mavhelm.companion.companion import Plan
     from mavhelm.companion.link import AutopilotLink, transport_for
-    from mavhelm.companion.mavlink_bridge import BridgeConfig
     from mavhelm.core.clock import WallClock
 
     config, origin, problem = BridgeConfig(), None, ""

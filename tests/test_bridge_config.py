@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from mavhelm.companion.mavlink_bridge import BridgeConfig
+from mavhelm.companion.bridge import BridgeConfig
 from mavhelm.core.mission import MissionError, parse_mission
 
 BASE = """LatOrigin = 56.0

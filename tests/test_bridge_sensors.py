@@ -19,7 +19,7 @@ import time
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.mavlink_bridge import (
+from mavhelm.companion.bridge import (
     WHEEL_MAX_INTERVAL_S,
     BridgeConfig,
     MavlinkBridge,

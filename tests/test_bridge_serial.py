@@ -10,12 +10,13 @@ from __future__ import annotations
 import math
 import os
 import select
+import time
 import tty
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
@@ -85,11 +86,11 @@ def tick(bridge: MavlinkBridge, bus: Bus, clock: SimClock, dt: float = 0.1) -> d
     fd = bridge.link.fileno()
     ap = _AUTOPILOT.get(id(bridge))
     if fd is not None and ap is not None:
-        for _ in range(200):
+        for _ in range(400):  # select returns at once while part is readable: sleep
             if bridge.link.bytes_received() + bridge.link.transport.port.in_waiting \
                     >= ap.written:
                 break
-            select.select([fd], [], [], 0.01)
+            time.sleep(0.005)
     elif fd is not None:
         select.select([fd], [], [], 0.05)
     now = clock.advance(dt)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import socket
 import time
 
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin

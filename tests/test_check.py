@@ -9,8 +9,8 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.bridge import BridgeConfig
 from mavhelm.companion.check import Observed, checklist
-from mavhelm.companion.mavlink_bridge import BridgeConfig
 from mavhelm.core.geodesy import Origin
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -200,7 +200,7 @@ def test_the_check_sees_the_real_imports():
     ("mavhelm.companion.companion", "from mavhelm.sitl.flat_earth import Origin\n", "sitl"),
     ("mavhelm.companion.companion", "import mavhelm.cli\n", "cli"),
     ("mavhelm.companion.companion", "from ..demo import harness\n", "demo"),
-    ("mavhelm.sitl.boat", "from ..companion.mavlink_bridge import MavlinkBridge\n", "companion"),
+    ("mavhelm.sitl.boat", "from ..companion.bridge import MavlinkBridge\n", "companion"),
     ("mavhelm.sitl", "from ..tasks import Helm\n", "tasks"),
     ("mavhelm.sitl.boat", "import importlib\nimportlib.import_module('mavhelm.demo')\n", "demo"),
     ("mavhelm.demo.harness", "from mavhelm.cli import main\n", "cli"),

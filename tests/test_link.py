@@ -106,9 +106,9 @@ def test_a_link_started_before_the_autopilot_waits_and_retries_with_backoff():
     attempts = []
     for tenth in range(1, 300):
         now = tenth / 10
-        before = link._retry_at
+        before = link.backoff.next_at
         link.poll(now)
-        if link._retry_at != before:
+        if link.backoff.next_at != before:
             attempts.append(round(now, 1))
     assert attempts[:5] == [1.0, 3.0, 7.0, 15.0, 23.0], "1 s doubling to 8 s between attempts"
     assert link.take_events() == [], "the same failure is said once, not at every retry"

@@ -27,13 +27,13 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.actuation import ATTITUDE_RATE_AND_THRUST, rudder_to_turn_rate
-from mavhelm.companion.link import AutopilotLink
-from mavhelm.companion.mavlink_bridge import (
+from mavhelm.companion.bridge import (
     ROVER_MODE_NUMBERS,
     ROVER_MODES,
     BridgeConfig,
     MavlinkBridge,
 )
+from mavhelm.companion.link import AutopilotLink
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin

@@ -14,8 +14,8 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from mavhelm.companion.bridge import IMAVLINK_SCHEMA
 from mavhelm.companion.companion import Plan
-from mavhelm.companion.mavlink_bridge import IMAVLINK_SCHEMA
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.mission import MissionError

@@ -98,8 +98,24 @@ class Guided(Actuation):
         return {"AP_CMD_YAW_RATE": yaw_rate, "AP_CMD_THRUST": fraction}
 
 
+DEFAULT_STEER_CHANNEL = 1
+DEFAULT_THROTTLE_CHANNEL = 3
+"""ArduPilot's default RCMAP_ROLL and RCMAP_THROTTLE."""
+
 GCS_SYSID_PARAMS = ("MAV_GCS_SYSID", "SYSID_MYGCS")
 """ArduPilot 4.7+ names it MAV_GCS_SYSID; older firmware SYSID_MYGCS."""
+
+
+def engage_clash(params: Mapping[str, float], engage_channel: int) -> str | None:
+    """Why the autopilot's RCMAP forbids engaging: steering or throttle on the engage
+    channel, where the override would hold the very switch that engages the helm."""
+    for what, param in (("steering", "RCMAP_ROLL"), ("throttle", "RCMAP_THROTTLE")):
+        if param in params and int(params[param]) == engage_channel:
+            return (f"the autopilot's {param} = {engage_channel} puts {what} on the engage "
+                    f"switch RC{engage_channel}: the RC override would drive the switch that "
+                    "engages the helm; move EngageChannel in iMAVLink (or the autopilot's "
+                    "RCMAP)")
+    return None
 
 
 @dataclass
@@ -116,7 +132,8 @@ class RcOverride(Actuation):
 
     def wanted_params(self) -> tuple[str, ...]:
         names = ["RCMAP_ROLL", "RCMAP_THROTTLE", *GCS_SYSID_PARAMS]
-        for ch in (1, 3):  # the default RCMAP; the mapped channels are asked for once known
+        # the default RCMAP's channels; the mapped channels are asked for once known
+        for ch in (DEFAULT_STEER_CHANNEL, DEFAULT_THROTTLE_CHANNEL):
             names += [f"RC{ch}_MIN", f"RC{ch}_TRIM", f"RC{ch}_MAX"]
         return tuple(names)
 
@@ -137,6 +154,9 @@ class RcOverride(Actuation):
         return missing
 
     def refusal(self, view: AutopilotView) -> str | None:
+        clash = engage_clash(view.params, self.engage_channel)
+        if clash is not None:
+            return clash
         missing = self.missing(view.params)
         if missing:
             return f"waiting for the autopilot's parameters {', '.join(missing)}"

@@ -8,6 +8,7 @@ was observed, so they are tested without a vehicle; ``observe`` is the thin I/O 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -15,10 +16,10 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.actuation import GCS_SYSID_PARAMS
+from mavhelm.companion.actuation import GCS_SYSID_PARAMS, engage_clash
+from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
 from mavhelm.companion.link import AutopilotLink
-from mavhelm.companion.mavlink_bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
-from mavhelm.core.geodesy import Origin
+from mavhelm.core.geodesy import Origin, lat_lon_e7
 
 VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover"}
 
@@ -117,14 +118,7 @@ def _param_lines(params: dict[str, float], config: BridgeConfig) -> list[Line]:
         lines.append(Line("WARN", "WP_SPEED not read: the speed thrust asks for is unknown"))
     gcs = next((int(params[n]) for n in GCS_SYSID_PARAMS if n in params), None)
     if config.actuation == "rc_override":
-        if gcs is None:
-            lines.append(Line("FAIL", "MAV_GCS_SYSID not read: rc_override cannot engage"))
-        elif gcs != config.system_id:
-            lines.append(Line("FAIL", f"MAV_GCS_SYSID is {gcs} but SystemID is "
-                                      f"{config.system_id}: ArduPilot would ignore the RC "
-                                      f"override; set SystemID = {gcs} in iMAVLink"))
-        else:
-            lines.append(Line("ok", f"MAV_GCS_SYSID {gcs} matches the companion's SystemID"))
+        lines += _rc_lines(params, config, gcs)
     for servo in config.servos:
         name = f"SERVO{servo.channel}_FUNCTION"
         function = params.get(name)
@@ -185,7 +179,8 @@ def _record(seen: Observed, msg: mavlink.MAVLink_message, config: BridgeConfig) 
     elif kind == "GPS_RAW_INT":
         seen.gps_fix = msg.fix_type
         if msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:
-            seen.position = (msg.lat * 1e-7, msg.lon * 1e-7)
+            with contextlib.suppress(ValueError):  # not on the earth: not a position
+                seen.position = lat_lon_e7(msg.lat, msg.lon)
     elif kind == "EKF_STATUS_REPORT":
         seen.ekf_flags = msg.flags
     elif kind == "PARAM_VALUE":
@@ -193,3 +188,22 @@ def _record(seen: Observed, msg: mavlink.MAVLink_message, config: BridgeConfig) 
     elif kind == "STATUSTEXT":
         seen.statustexts.append(msg.text)
 
+
+
+def _rc_lines(params: dict[str, float], config: BridgeConfig, gcs: int | None) -> list[Line]:
+    """rc_override: ArduPilot must obey the companion's override, and the override must not
+    land on the engage switch."""
+    lines: list[Line] = []
+    if gcs is None:
+        lines.append(Line("FAIL", "MAV_GCS_SYSID not read: rc_override cannot engage"))
+    elif gcs != config.system_id:
+        lines.append(Line("FAIL", f"MAV_GCS_SYSID is {gcs} but SystemID is "
+                                  f"{config.system_id}: ArduPilot would ignore the RC "
+                                  f"override; set SystemID = {gcs} in iMAVLink"))
+    else:
+        lines.append(Line("ok", f"MAV_GCS_SYSID {gcs} matches the companion's SystemID"))
+    assert config.engage_channel is not None
+    clash = engage_clash(params, config.engage_channel)
+    if clash is not None:
+        lines.append(Line("FAIL", clash))
+    return lines

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mavhelm.companion.alog import AlogLogger, log_dir
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.serial_instruments import (
     SerialInstrument,
@@ -181,7 +181,7 @@ class Companion:
         helm.nav = self.helm.nav
         apps = self.community.apps
         apps[apps.index(self.helm)] = helm
-        link = dataclasses.replace(plan.link, connect=self.plan.link.connect)  # --connect kept
+        link = plan.link.replace(connect=self.plan.link.connect)  # --connect kept
         kept = [what for what, same in (("iMAVLink", link == self.plan.link),
                                         ("origin", plan.origin == self.plan.origin),
                                         ("pNav", _entries(plan.mission, "pNav")

@@ -28,12 +28,16 @@ from typing import Protocol
 import serial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.core.backoff import Backoff
+
 READ_BUDGET = 32 * 1024
 """Bytes parsed per tick: ~1000 telemetry messages, several times ArduPilot's full stream."""
 READ_CAP = 8 * 1024 * 1024
 """Bytes drained per tick at most; past it, the kernel's socket buffer holds the rest."""
 RETRY_FIRST_S = 1.0
 RETRY_MAX_S = 8.0
+CONNECT_TIMEOUT_S = 5.0
+"""A connection attempt not answered in this long is given up and retried."""
 
 
 class Transport(Protocol):
@@ -109,6 +113,11 @@ class TcpTransport:
             return 0  # the read side notices a broken connection and reconnects
         self._unsent = pending[sent:]
         return sent
+
+    @property
+    def unsent(self) -> int:
+        """Bytes queued that the kernel has not taken yet (0 once all is on its way)."""
+        return len(self._unsent)
 
     def close(self) -> None:
         if self.sock is not None:
@@ -281,8 +290,8 @@ class AutopilotLink:
                                    srcComponent=self.component_id)
         self.mav.robust_parsing = True
         self._buffer = bytearray(READ_CAP)
-        self._retry_at = 0.0
-        self._retry_delay = RETRY_FIRST_S
+        self.backoff = Backoff(RETRY_FIRST_S, RETRY_MAX_S)
+        self._opened_at = 0.0
         self._opening = False
         self._last_failure = ""
 
@@ -296,25 +305,26 @@ class AutopilotLink:
         self._opening = False
         if was_up:
             self.events.append(f"link to {self.url} lost: {why}; reconnecting")
-            self._retry_delay = RETRY_FIRST_S
+            self.backoff.succeeded()
         elif why != self._last_failure:
             self.events.append(f"waiting for the autopilot at {self.url}: {why}; "
-                               f"retrying every {self._retry_delay:g}-{RETRY_MAX_S:g} s")
+                               f"retrying every {self.backoff.delay_s:g}-"
+                               f"{self.backoff.max_s:g} s")
         self._last_failure = why
-        self._retry_at = now + self._retry_delay
-        self._retry_delay = min(RETRY_MAX_S, self._retry_delay * 2)
+        self.backoff.failed(now)
 
     def _connect(self, now: float) -> None:
         """Advance a connection attempt without blocking."""
         assert self.transport is not None
         try:
             if not self._opening:
-                if now < self._retry_at:
+                if not self.backoff.due(now):
                     return
+                self._opened_at = now
                 self.transport.open()
                 self._opening = True
             if not self.transport.ready():
-                if now - self._retry_at > 5.0:
+                if now - self._opened_at > CONNECT_TIMEOUT_S:
                     self._fail(now, "connection attempt timed out")
                 return
         except OSError as exc:
@@ -324,7 +334,7 @@ class AutopilotLink:
         self.connected = True
         self.generation += 1
         self.stats.connects += 1
-        self._retry_delay = RETRY_FIRST_S
+        self.backoff.succeeded()
         self._last_failure = ""
         self.mav.buf = bytearray()
         self.mav.buf_index = 0
@@ -405,6 +415,10 @@ class AutopilotLink:
 
     def bytes_sent(self) -> int:
         return self.stats.bytes_written
+
+    def unsent(self) -> int:
+        """Bytes written but still queued in the transport (a TCP peer not reading yet)."""
+        return int(getattr(self.transport, "unsent", 0))
 
     def write(self, data: bytes) -> None:
         """Called by pymavlink's encoder; dropped while the link is down."""

@@ -7,8 +7,8 @@ two differ, so the documentation cannot drift from what a mission may say.
 from __future__ import annotations
 
 from mavhelm.companion.alog import LOGGER_SCHEMA
+from mavhelm.companion.bridge import IMAVLINK_SCHEMA
 from mavhelm.companion.companion import PROCESSES
-from mavhelm.companion.mavlink_bridge import IMAVLINK_SCHEMA
 from mavhelm.companion.serial_instruments import INSTRUMENT_INTRO, INSTRUMENT_SCHEMA
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.params import Schema

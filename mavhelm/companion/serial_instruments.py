@@ -105,7 +105,7 @@ from typing import Any
 import pynmea2
 
 from mavhelm.companion.link import RETRY_FIRST_S, RETRY_MAX_S, SerialTransport, Transport
-from mavhelm.companion.mavlink_bridge import FAR_FROM_ORIGIN_M
+from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus
 from mavhelm.core.geodesy import Origin, heading_to_yaw

@@ -33,8 +33,8 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.link import AutopilotLink
-from mavhelm.companion.mavlink_bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import mission_origin
 from mavhelm.core.mission import Mission

@@ -11,6 +11,20 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
+BOOT_MS_WRAP = 1 << 32
+"""MAVLink's ``time_boot_ms`` is a uint32: it wraps after 49.7 days."""
+
+
+def boot_ms(elapsed_s: float) -> int:
+    """Seconds since boot as a ``time_boot_ms`` field: whole milliseconds, never negative,
+    wrapped to uint32 as the autopilot's own counter wraps."""
+    return int(max(0.0, elapsed_s) * 1000) % BOOT_MS_WRAP
+
+
+def boot_seconds(time_boot_ms: int) -> float:
+    """A received ``time_boot_ms`` in seconds (the autopilot clock's feed)."""
+    return time_boot_ms / 1000.0
+
 
 class Clock(Protocol):
     def now(self) -> float: ...

@@ -57,6 +57,18 @@ class Origin:
         return float(lat), float(lon)
 
 
+E7 = 1e-7
+"""MAVLink's integer latitudes and longitudes are degrees × 1e7."""
+
+
+def lat_lon_e7(lat_e7: int, lon_e7: int) -> tuple[float, float]:
+    """A MAVLink position (degrees × 1e7) in degrees; ValueError for a point not on the earth,
+    so every message that carries one refuses it the same way."""
+    if not (abs(lat_e7) <= 900_000_000 and abs(lon_e7) <= 1_800_000_000):
+        raise ValueError(f"lat/lon {lat_e7}/{lon_e7} (1e-7 deg) is not on the earth")
+    return lat_e7 * E7, lon_e7 * E7
+
+
 def wrap_degrees(angle: float) -> float:
     """Wrap to (-180, 180]."""
     a = math.fmod(angle + 180.0, 360.0)

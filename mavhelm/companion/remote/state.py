@@ -17,7 +17,7 @@ from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.mavlink_bridge import (
+from mavhelm.companion.bridge import (
     CMD_RESTART_HELM,
     COMPANION_COMPONENT,
     ROVER_MODE_NUMBERS,

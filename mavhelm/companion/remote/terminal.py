@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mavhelm.companion.link import AutopilotLink, transport_for
-from mavhelm.companion.mavlink_bridge import COMPANION_COMPONENT
+from mavhelm.companion.bridge import COMPANION_COMPONENT
 from mavhelm.companion.remote.state import (
     GCS_COMPONENT_ID,
     GCS_SYSTEM_ID,

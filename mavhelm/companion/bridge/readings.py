@@ -1,0 +1,72 @@
+"""Sensor messages whose value needs more than a unit change: rangefinder readings that may
+mean "nothing seen", and wheel distances that become a speed only between two messages."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+UNKNOWN_U16 = 65535
+"""A MAVLink uint16 field's "unknown"."""
+
+DOWNWARD = mavlink.MAV_SENSOR_ROTATION_PITCH_270
+"""DISTANCE_SENSOR orientation of a sounder or a ground rangefinder: it gives AP_ALTITUDE."""
+
+WHEEL_MAX_SPEED = 50.0
+"""m/s: a wheel-distance speed beyond this is a counter that jumped, not a vehicle moving."""
+WHEEL_MAX_DISTANCE = 1e9
+"""m: a cumulative wheel distance beyond this is garbage."""
+WHEEL_MAX_INTERVAL_S = 5.0
+"""A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
+
+
+def distance_reading(msg: mavlink.MAVLink_distance_sensor_message) -> float | None:
+    """A DISTANCE_SENSOR's range in metres, or None when it has no reading to give.
+
+    A reading outside the sensor's own [min_distance, max_distance] is the sensor saying it
+    sees nothing within its range (too close, or nothing there), and 65535 or a max_distance of
+    0 means "no reading": none of these is a distance, and a rangefinder out of range is normal
+    (a sounder over deep water), not an error, so they are left out without a word.
+    """
+    current = int(msg.current_distance)
+    if current == UNKNOWN_U16 or msg.max_distance == 0:
+        return None
+    if not msg.min_distance <= current <= msg.max_distance:
+        return None
+    return current / 100.0
+
+
+@dataclass
+class WheelOdometry:
+    """WHEEL_DISTANCE's cumulative wheel distances turned into a forward speed.
+
+    The speed is the mean over the wheels of their distance change, divided by the time between
+    two messages: wheels on either side of a turning vehicle cancel out in the mean. The first
+    message only starts the clock; so does a time going backwards (the autopilot rebooted, or
+    on a 32-bit board ArduPilot's ``1000UL * millis()`` wrapped, every 71.6 minutes), a
+    repeated time, a change in the number of wheels or a gap over WHEEL_MAX_INTERVAL_S.
+    """
+
+    last: tuple[int, tuple[float, ...]] | None = None
+
+    def speed(self, time_usec: int, count: int, distance: list[float]) -> float | None:
+        """Forward speed (m/s) since the previous message; raises ValueError on a message no
+        wheel could produce."""
+        if not 0 <= count <= len(distance):
+            raise ValueError(f"WHEEL_DISTANCE count {count} (at most {len(distance)} wheels)")
+        wheels = tuple(float(d) for d in distance[:count])
+        if not all(math.isfinite(d) and abs(d) <= WHEEL_MAX_DISTANCE for d in wheels):
+            raise ValueError(f"wheel distances {wheels} are not finite metres")
+        previous, self.last = self.last, (time_usec, wheels)
+        if previous is None or not wheels or len(previous[1]) != len(wheels):
+            return None
+        dt = (time_usec - previous[0]) / 1e6
+        if not 0.0 < dt <= WHEEL_MAX_INTERVAL_S:
+            return None
+        moved = sum(d - p for d, p in zip(wheels, previous[1], strict=True)) / len(wheels)
+        speed = moved / dt
+        if abs(speed) > WHEEL_MAX_SPEED:
+            raise ValueError(f"wheel speed {speed:.1f} m/s in {dt:g} s: a counter jumped")
+        return speed

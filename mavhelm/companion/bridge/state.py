@@ -1,0 +1,34 @@
+"""What the bridge has heard from the autopilot and the ground stations, shared by the
+handlers that fill it in and the supervisor that decides from it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from mavhelm.companion.actuation import AutopilotView
+
+
+@dataclass
+class AutopilotState:
+    mode: str | None = None
+    armed: bool = False
+    last_heartbeat: float | None = None
+    """When the autopilot's latest HEARTBEAT was heard on this connection."""
+    ekf_position_ok: bool | None = None
+    view: AutopilotView = field(default_factory=AutopilotView)
+    heard: set[str] = field(default_factory=set)
+    """Message types heard from the autopilot since the link came up."""
+    last_statustext: str = ""
+    gcs_heard_at: float | None = None
+    """When a ground station's HEARTBEAT was last heard (ArduPilot forwards them)."""
+    streams_acked: bool = False
+    warned_far: bool = False
+    guests: dict[str, tuple[int, int]] = field(default_factory=dict)
+    """job@client → (system, component) of guests that asked over MAVLink."""
+
+    def forget_autopilot(self) -> None:
+        """A new or restored connection: nothing heard before it counts."""
+        self.last_heartbeat = None
+        self.mode = None
+        self.armed = False
+        self.view = AutopilotView()
