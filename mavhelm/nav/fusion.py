@@ -45,9 +45,28 @@ from mavhelm.nav.ekf import (
     Tide,
     Yaw,
 )
-from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix
-from mavhelm.nav.sensor_channel import RejectionRule, SensorChannel
-from mavhelm.nav.sensors import FixedValue, Reading, fixed_observations
+from mavhelm.nav.lsq import DIVERGENCE_COUNT, LSQ, DivergenceMonitor, Fix
+from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
+from mavhelm.nav.sensors import (
+    BEACON,
+    FIXEDDEPTH,
+    FIXEDHEADING,
+    FIXEDSIDESLIP,
+    FIXEDTIDE,
+    FixedValue,
+    Reading,
+    fixed_observations,
+)
+from mavhelm.nav.settings import (
+    EKF_LAG,
+    LSQ_DIVERGENCE,
+    LSQ_OFFSET,
+    LSQ_TIMEOUT,
+    LSQ_WINDOW,
+    check_config,
+    setting,
+)
+from mavhelm.nav.settings import LSQ as LSQ_SETTING
 
 BOOT_FIXES = 3
 """LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
@@ -76,23 +95,27 @@ class Start:
 
 @dataclass(frozen=True)
 class FusionConfig:
-    """The pNav block's filter settings, already checked by its schema."""
+    """The pNav block's filter settings: each ``setting(...)`` field is declared once, by the
+    ``Param`` it names (default, range, unit); ``ekf`` and ``start`` are built from theirs."""
 
     ekf: EKFConfig = field(default_factory=EKFConfig)
-    beacons: tuple[Beacon, ...] = ()
-    lag: float = 0.0
+    beacons: tuple[Beacon, ...] = setting(BEACON)
+    lag: float = setting(EKF_LAG)
     start: Start | None = None
-    lsq: bool = True
-    lsq_window: float = 5.0
-    lsq_timeout: float | None = 30.0
-    lsq_offset: bool = False
-    divergence_distance: float = 20.0
-    divergence_count: int = 6
-    fixed_depth: FixedValue | None = None
-    fixed_heading: FixedValue | None = None
-    fixed_tide: FixedValue | None = None
-    fixed_sideslip: FixedValue | None = None
-    rejection: tuple[RejectionRule, ...] = ()
+    lsq: bool = setting(LSQ_SETTING)
+    lsq_window: float = setting(LSQ_WINDOW)
+    lsq_timeout: float | None = setting(LSQ_TIMEOUT)
+    lsq_offset: bool = setting(LSQ_OFFSET)
+    divergence_distance: float = setting(LSQ_DIVERGENCE)
+    divergence_count: int = DIVERGENCE_COUNT
+    fixed_depth: FixedValue | None = setting(FIXEDDEPTH)
+    fixed_heading: FixedValue | None = setting(FIXEDHEADING)
+    fixed_tide: FixedValue | None = setting(FIXEDTIDE)
+    fixed_sideslip: FixedValue | None = setting(FIXEDSIDESLIP)
+    rejection: tuple[RejectionRule, ...] = setting(LSQ_REJECTION)
+
+    def __post_init__(self) -> None:
+        check_config(self)
 
 
 def describe(obs: Observation) -> str:

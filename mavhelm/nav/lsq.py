@@ -34,8 +34,9 @@ from dataclasses import dataclass
 from scipy.stats import chi2
 
 from mavhelm.nav.ekf import Beacon, Range
+from mavhelm.nav.settings import LSQ_DIVERGENCE, LSQ_WINDOW
 
-DIVERGENCE_DISTANCE = 20.0
+DIVERGENCE_DISTANCE: float = LSQ_DIVERGENCE.default
 """m: an LSQ fix further than this from the EKF is a disagreement (spec 2.2.9)."""
 DIVERGENCE_COUNT = 6
 """Disagreements in a row before the EKF is re-initialised to the LSQ (the original's 6)."""
@@ -198,7 +199,8 @@ class LSQ:
     bad ranges than that in one window: no fix).
     """
 
-    def __init__(self, beacons: Iterable[Beacon], *, window: float = 5.0, min_beacons: int = 3,
+    def __init__(self, beacons: Iterable[Beacon], *, window: float = LSQ_WINDOW.default,
+                 min_beacons: int = 3,
                  gate_probability: float = 0.999, max_drops: int = 2,
                  estimate_offset: bool = False) -> None:
         self.beacons = {b.name: b for b in beacons}
