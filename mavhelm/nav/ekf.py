@@ -493,6 +493,9 @@ class EKF:
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
+        self._good = (float(x), float(y), float(yaw))
+        """The last position known finite, where a numerical recovery restarts."""
+        self.recoveries = 0
 
     def _templates(self) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         """F = I + dt·C and Q = dt³/3·Q₃ + dt²/2·Q₂ + dt·Q₁ + dt·Q_walk: the constant
@@ -854,13 +857,19 @@ class EKF:
             P[i, i] = variance
 
     def _tidy(self, symmetrise: bool = True) -> None:
-        """Wrap yaw, keep P symmetric, reset silly rates, check the uncertainty limit."""
+        """Wrap yaw, keep P symmetric, recover from a broken covariance, reset silly rates,
+        check the uncertainty limit."""
+        if symmetrise:
+            self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
         x, cfg = self.kf.x, self.config
+        if self._healthy():
+            self._good = (float(x[I_X, 0]), float(x[I_Y, 0]), float(x[I_H, 0]))
+        else:
+            self._recover()
+            x = self.kf.x
         x[I_H, 0] = wrap_angle(float(x[I_H, 0]))
         if self.i_bias is not None:
             x[self.i_bias, 0] = wrap_angle(float(x[self.i_bias, 0]))
-        if symmetrise:
-            self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
         if not cfg.mobile:
             self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
         speed = math.hypot(x[I_VX, 0], x[I_VY, 0])
@@ -881,6 +890,32 @@ class EKF:
                 f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
                 f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
             raise self.failure
+
+    def _healthy(self) -> bool:
+        """A finite state and a covariance with no negative variance and no correlation
+        beyond ±1: rounding in ``P − K S Kᵀ`` after an observation far more precise than the
+        prior can break both, and the filter would then divide by or take roots of them."""
+        x, P = self.kf.x, self.kf.P
+        if not (np.isfinite(x).all() and np.isfinite(P).all()):
+            return False
+        var = P.diagonal()
+        if (var < 0.0).any():
+            return False
+        bound = np.sqrt(np.outer(var, var)) * (1.0 + 1e-6) + 1e-300
+        return bool((np.abs(P) <= bound).all())
+
+    def _recover(self) -> None:
+        """Start again from the last sound position (the state's own if still finite) with the
+        configured start uncertainty, and say so: a numerical failure is the filter's, not the
+        vehicle's, so it is a warning and a re-initialisation, never an exception."""
+        x = self.kf.x[:, 0]
+        if np.isfinite(x[[I_X, I_Y, I_H]]).all():
+            self._good = (float(x[I_X]), float(x[I_Y]), float(x[I_H]))
+        px, py, yaw = self._good
+        self._initialise(px, py, yaw, None, None)
+        self.recoveries += 1
+        self.warnings.append(f"EKF covariance lost its positive definiteness at "
+                             f"t={self.t:.2f}: re-initialised to ({px:.1f}, {py:.1f})")
 
     def _require_online(self) -> None:
         if self.failure is not None:
@@ -912,16 +947,21 @@ class EKF:
         return Estimate(
             t=t, x=float(x[I_X]), y=float(x[I_Y]), yaw=float(x[I_H]),
             x_vel=float(x[I_VX]), y_vel=float(x[I_VY]), yaw_vel=float(x[I_VH]),
-            sigma_x=math.sqrt(P[I_X, I_X]), sigma_y=math.sqrt(P[I_Y, I_Y]),
-            sigma_yaw=math.sqrt(P[I_H, I_H]),
+            sigma_x=_root(P[I_X, I_X]), sigma_y=_root(P[I_Y, I_Y]),
+            sigma_yaw=_root(P[I_H, I_H]),
             yaw_bias=float(x[self.i_bias]) if self.i_bias is not None else 0.0,
             range_scale=float(x[self.i_scale]) if self.i_scale is not None else 0.0,
             offsets={name: float(x[i]) for name, i in self._offset_index.items()},
             z=float(x[self.i_z]) if self.i_z is not None else 0.0,
             z_vel=float(x[self.i_vz]) if self.i_vz is not None else 0.0,
             tide=float(x[self.i_tide]) if self.i_tide is not None else 0.0,
-            sigma_z=math.sqrt(P[self.i_z, self.i_z]) if self.i_z is not None else 0.0,
+            sigma_z=_root(P[self.i_z, self.i_z]) if self.i_z is not None else 0.0,
         )
+
+
+def _root(variance: float) -> float:
+    """A 1-σ from a variance that rounding may have taken a hair below zero."""
+    return math.sqrt(max(float(variance), 0.0))
 
 
 def _stack(rows: list[_Rows]) -> _Rows:
