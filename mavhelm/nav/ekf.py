@@ -764,22 +764,23 @@ class EKF:
             v = vx * c + vy * s
             lx, ly, _lz = obs.lever
             w = x[I_VH]
-            zs, hs, Hs, rs = [], [], [], []
-            if obs.forward is not None:
+            parts: list[tuple[float | None, float, tuple[float, ...], float]] = [
+                (obs.forward, u + w * lx, (-s, c, -v, lx), obs.sigma_forward),
+                (obs.starboard, v - w * ly, (c, s, u, -ly), obs.sigma_starboard),
+                (obs.yaw_rate, w, (0.0, 0.0, 0.0, 1.0), obs.sigma_yaw_rate)]
+            zs: list[float] = []
+            hs: list[float] = []
+            Hs: list[np.ndarray] = []
+            rs: list[float] = []
+            for measured, predicted, (d_vx, d_vy, d_h, d_vh), sigma in parts:
+                if measured is None:
+                    continue
                 h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H], h[I_VH] = -s, c, -v, lx
-                zs.append(obs.forward), hs.append(u + w * lx), Hs.append(h)
-                rs.append(obs.sigma_forward**2)
-            if obs.starboard is not None:
-                h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H], h[I_VH] = c, s, u, -ly
-                zs.append(obs.starboard), hs.append(v - w * ly), Hs.append(h)
-                rs.append(obs.sigma_starboard**2)
-            if obs.yaw_rate is not None:
-                h = np.zeros(n)
-                h[I_VH] = 1.0
-                zs.append(obs.yaw_rate), hs.append(w), Hs.append(h)
-                rs.append(obs.sigma_yaw_rate**2)
+                h[I_VX], h[I_VY], h[I_H], h[I_VH] = d_vx, d_vy, d_h, d_vh
+                zs.append(measured)
+                hs.append(predicted)
+                Hs.append(h)
+                rs.append(sigma**2)
             if not zs:
                 raise ValueError("a BodyVelocity observation with no part")
             return _Rows(np.array(zs), np.array(hs), np.array(Hs), np.array(rs),
