@@ -110,7 +110,8 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus
 from mavhelm.core.geodesy import Origin, heading_to_yaw
 from mavhelm.core.mission import Block, Entry, Mission
-from mavhelm.core.params import Choice, ChoiceList, Kind, Param, Schema, Seconds, Text
+from mavhelm.core.names import POSTED_FAMILIES, posted_family
+from mavhelm.core.params import Choice, ChoiceList, Kind, Param, PathName, Schema, Seconds
 
 BLOCK_NAME = "iSerial"
 """A serial instrument's ProcessConfig is ``iSerial`` or ``iSerial_<label>``."""
@@ -131,7 +132,7 @@ DRAIN_CAP = 128 * 1024
 BUDGET_MIN = 4 * 1024
 BUDGET_MAX = 64 * 1024
 
-RESERVED_NAMES = ("GPS", "INS", "AP", "NAV", "DESIRED", "HELM", "MAVLINK", "TASK")
+RESERVED_NAMES = POSTED_FAMILIES
 """Prefixes other apps post (the MAVLink bridge, pNav, the helm): a reader may not mix in."""
 
 STANDARD_BAUDS = (300, 600, 1200, 1800, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400,
@@ -166,7 +167,7 @@ class VariablePrefix(Kind):
 
     def check_value(self, value: Any) -> bool:
         return isinstance(value, str) and bool(_PREFIX.fullmatch(value)) \
-            and value == value.upper() and value not in RESERVED_NAMES
+            and value == value.upper() and posted_family(value) is None
 
     def parse(self, entry: Entry) -> str:
         text = entry.value.strip()
@@ -174,21 +175,22 @@ class VariablePrefix(Kind):
             raise entry.error(f"{entry.key} must be a variable prefix: a letter then letters, "
                               f"digits or '_', got {text!r}")
         name = text.upper()
-        if name in RESERVED_NAMES:
-            raise entry.error(f"{entry.key} = {text}: {name}_* variables are posted by another "
-                              f"app (reserved: {', '.join(RESERVED_NAMES)}); choose another "
-                              f"prefix, e.g. S{name}")
+        family = posted_family(name)
+        if family is not None:
+            raise entry.error(f"{entry.key} = {text}: {family}_* variables are posted by "
+                              f"another app (reserved: {', '.join(RESERVED_NAMES)}); choose "
+                              f"another prefix, e.g. S{name}")
         return name
 
 
-class DevicePath(Text):
+class DevicePath(PathName):
     """A serial device: an absolute path (``/dev/ttyUSB0``, ``/dev/serial/by-id/…``)."""
 
     def describe(self) -> str:
         return "a device path such as /dev/ttyUSB0"
 
     def check_value(self, value: Any) -> bool:
-        return isinstance(value, str) and value.startswith("/") and \
+        return super().check_value(value) and value.startswith("/") and \
             not any(c.isspace() or c == "," for c in value)
 
     def parse(self, entry: Entry) -> str:

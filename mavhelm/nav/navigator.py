@@ -31,7 +31,7 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import heading_to_yaw, yaw_to_heading
 from mavhelm.core.mission import Block, Entry, Mission, MissionError
 from mavhelm.core.names import END_MISSION, NAVIGATION_FAILURE, NO_SOURCE
-from mavhelm.core.params import Boolean, Param, Schema, Text, Word
+from mavhelm.core.params import Boolean, FileStem, Param, PathName, Schema
 from mavhelm.nav.ekf import EKFConfig, Estimate
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
 from mavhelm.nav.priority_queue import PriorityQueue, QueueSpec
@@ -101,9 +101,9 @@ are in earth coordinates (spec 2)."""
 
 NAV_LOG = Param("NAV_LOG", Boolean(), True, "", "write the .olog and .xlog when filters run",
                 attr="nav_log")
-NAV_LOG_PATH = Param("NAV_LOG_PATH", Text(), None, "", "folder of the nav logs (default: the "
-                     "alog's)", attr="nav_log_path")
-NAV_LOG_STEM = Param("NAV_LOG_STEM", Word(), "pNav", "", "file name stem of the nav logs",
+NAV_LOG_PATH = Param("NAV_LOG_PATH", PathName(folder=True), None, "", "folder of the nav "
+                     "logs (default: the alog's)", attr="nav_log_path")
+NAV_LOG_STEM = Param("NAV_LOG_STEM", FileStem(), "pNav", "", "file name stem of the nav logs",
                      attr="nav_log_stem")
 NAV_LOG_TIMESTAMP = Param("NAV_LOG_TIMESTAMP", Boolean(), True, "", "put the creation time in "
                           "the file names", attr="nav_log_timestamp")
