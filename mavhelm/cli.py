@@ -8,7 +8,7 @@ import sys
 import threading
 from pathlib import Path
 
-from mavhelm.core.errors import LocatedError
+from mavhelm.core.errors import LocatedError, SettingError
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -19,7 +19,11 @@ def _run(args: argparse.Namespace) -> int:
     clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
     plan = Plan.from_mission(args.mission, clock, connect=args.connect)
     log_dir = Path(args.log_dir or mission_log_dir(plan.mission))
-    log_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        log_dir.mkdir(parents=True, exist_ok=True)
+    except (OSError, ValueError) as exc:
+        setting = "--log-dir" if args.log_dir else "pLogger LogDir"
+        raise SettingError(setting, f"the log folder {str(log_dir)!r}", exc) from None
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
     companion = Companion.build(plan.mission, clock, connect=args.connect, alog_path=alog,
                                 echo=lambda line: print(line, flush=True))
@@ -273,7 +277,7 @@ def main(argv: list[str] | None = None) -> int:
     _stop_on_signals()
     try:
         return args.func(args)
-    except LocatedError as exc:
+    except (LocatedError, SettingError) as exc:
         print(f"mavhelm: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

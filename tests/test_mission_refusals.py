@@ -115,7 +115,7 @@ FOUND = [
     ("pNav", "SENSOR_XY = GPS->gps @ 0,0,nan ~ 3",
      "SENSOR_XY lever arm must be a finite number, got 'nan'"),
     ("pNav", "SENSOR_XY = GPS->gps @ 0,0,0 ~ -3",
-     "SENSOR_XY noise must be a number in (0, 10000], got -3"),
+     "SENSOR_XY noise must be a number in [0.01, 10000], got -3"),
     ("pNav", "SENSOR_XY = GPS gps @ 0,0,0 ~ 3",
      "SENSOR_XY expects SOURCE -> name @ x,y,z[,twist deg] ~ noise (m), got "
      "'GPS gps @ 0,0,0 ~ 3'"),

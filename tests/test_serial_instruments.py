@@ -501,7 +501,8 @@ def test_a_flood_is_parsed_within_the_budget_newest_first() -> None:
      "Baud, Sentences, Stale)"),
     ((("Port", "/dev/x"), ("Sentences", "GGA")),
      "t.moos:10: ProcessConfig = iSerial_GPS needs Name (a letter then letters, digits or '_' "
-     "(upper-cased); not GPS, INS, AP, NAV, DESIRED, HELM, MAVLINK, TASK)"),
+     "(upper-cased); not GPS, INS, AP, NAV, DESIRED, HELM, MAVLINK, TASK, EKF, LSQ, WHEEL, "
+     "TRUTH, NAVIGATION, MISSION, THIRDPARTY, RESTART)"),
     ((("Name", "S"), ("Sentences", "GGA")),
      "t.moos:10: ProcessConfig = iSerial_GPS needs Port (a device path such as /dev/ttyUSB0)"),
     ((("Name", "S"), ("Port", "/dev/x")),
@@ -509,7 +510,8 @@ def test_a_flood_is_parsed_within_the_budget_newest_first() -> None:
      "GGA, RMC, HDT, DPT, DBT, PMVHDVL, PMVHLBL, PMVHRNG)"),
     ((("Name", "gps"), ("Port", "/dev/x"), ("Sentences", "GGA")),
      "t.moos:12: Name = gps: GPS_* variables are posted by another app (reserved: GPS, INS, "
-     "AP, NAV, DESIRED, HELM, MAVLINK, TASK); choose another prefix, e.g. SGPS"),
+     "AP, NAV, DESIRED, HELM, MAVLINK, TASK, EKF, LSQ, WHEEL, TRUTH, NAVIGATION, MISSION, "
+     "THIRDPARTY, RESTART); choose another prefix, e.g. SGPS"),
     ((("Name", "S-GPS"), ("Port", "/dev/x"), ("Sentences", "GGA")),
      "t.moos:12: Name must be a variable prefix: a letter then letters, digits or '_', "
      "got 'S-GPS'"),

@@ -16,11 +16,12 @@ from typing import TextIO
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.mission import Block, Mission
-from mavhelm.core.params import Param, Schema, Text
+from mavhelm.core.params import Param, PathName, Schema
 
 LOGGER_SCHEMA = Schema("pLogger", (
-    Param("LogDir", Text(), "runs", doc="folder for the .alog, relative to where mavhelm run "
-          "is started; `mavhelm run --log-dir` overrides it", attr="log_dir"),
+    Param("LogDir", PathName(folder=True), "runs", doc="folder for the .alog, relative to "
+          "where mavhelm run is started; `mavhelm run --log-dir` overrides it",
+          attr="log_dir"),
 ))
 
 

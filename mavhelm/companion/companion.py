@@ -27,7 +27,7 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
 from mavhelm.core.community import Community
-from mavhelm.core.errors import LocatedError
+from mavhelm.core.errors import LocatedError, SettingError
 from mavhelm.core.geodesy import Origin, mission_origin
 from mavhelm.core.mission import Mission, MissionError, load_mission
 from mavhelm.nav.navigator import Navigator
@@ -119,6 +119,17 @@ class Plan:
         return cls(mission, bus, navigator, helm, link, origin, instruments)
 
 
+def _nav_logs(navigator: Navigator, alog_folder: Path, opened_on: float | None
+              ) -> NavLogFiles:
+    """pNav's .olog/.xlog where its settings say; a failure names those settings."""
+    where = navigator.log_settings
+    try:
+        return NavLogFiles(where["nav_log_path"] or alog_folder, where["nav_log_stem"],
+                           timestamp=where["nav_log_timestamp"], opened_on=opened_on)
+    except (OSError, ValueError) as exc:
+        raise SettingError("pNav NAV_LOG_PATH, NAV_LOG_STEM", "the nav logs", exc) from None
+
+
 @dataclass
 class Companion:
     mission: Mission
@@ -145,13 +156,13 @@ class Companion:
         apps: list[App] = [*plan.instruments, bridge.input, navigator, helm, bridge.output]
         nav_logs: NavLogFiles | None = None
         if alog_path is not None:
-            apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
+            try:
+                apps.append(AlogLogger(bus, alog_path, clock.now(), opened_on=alog_opened_on))
+            except (OSError, ValueError) as exc:
+                raise SettingError("pLogger LogDir", f"the .alog {str(alog_path)!r}",
+                                   exc) from None
             if navigator.wants_log:
-                where = navigator.log_settings
-                nav_logs = NavLogFiles(where["nav_log_path"] or Path(alog_path).parent,
-                                       where["nav_log_stem"],
-                                       timestamp=where["nav_log_timestamp"],
-                                       opened_on=alog_opened_on)
+                nav_logs = _nav_logs(navigator, Path(alog_path).parent, alog_opened_on)
                 navigator.log = nav_logs
         apps.append(StatusConsole(
             bus, echo, statustext=bridge.send_statustext,

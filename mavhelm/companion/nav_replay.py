@@ -16,6 +16,7 @@ from pathlib import Path
 from mavhelm.companion.alog import read_alog
 from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.tlog import bus_messages_from_tlog
+from mavhelm.core.errors import SettingError
 from mavhelm.core.mission import MissionError, load_mission
 from mavhelm.nav.replay import ReplayResult, replay
 
@@ -46,8 +47,12 @@ def replay_files(mission_path: str | Path, log_path: str | Path, *, period: floa
         messages = read_alog(log_path)
     sink = None
     if write_nav_log:
-        sink = NavLogFiles(nav_log or log_path.parent, f"{log_path.stem}_replay",
-                           timestamp=False)
+        try:
+            sink = NavLogFiles(nav_log or log_path.parent, f"{log_path.stem}_replay",
+                               timestamp=False)
+        except (OSError, ValueError) as exc:
+            raise SettingError("--nav-log" if nav_log else "the log's folder",
+                               "the replay's nav logs", exc) from None
     started = time.perf_counter()
     try:
         result = replay(block, messages, period=period, log=sink)

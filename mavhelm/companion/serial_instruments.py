@@ -107,10 +107,12 @@ import pynmea2
 from mavhelm.companion.link import RETRY_FIRST_S, RETRY_MAX_S, SerialTransport, Transport
 from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M
 from mavhelm.core.app import App
+from mavhelm.core.backoff import Backoff
 from mavhelm.core.bus import Bus
 from mavhelm.core.geodesy import Origin, heading_to_yaw
 from mavhelm.core.mission import Block, Entry, Mission
-from mavhelm.core.params import Choice, ChoiceList, Kind, Param, Schema, Seconds, Text
+from mavhelm.core.names import POSTED_FAMILIES, posted_family
+from mavhelm.core.params import Choice, ChoiceList, Kind, Param, PathName, Schema, Seconds
 
 BLOCK_NAME = "iSerial"
 """A serial instrument's ProcessConfig is ``iSerial`` or ``iSerial_<label>``."""
@@ -131,7 +133,7 @@ DRAIN_CAP = 128 * 1024
 BUDGET_MIN = 4 * 1024
 BUDGET_MAX = 64 * 1024
 
-RESERVED_NAMES = ("GPS", "INS", "AP", "NAV", "DESIRED", "HELM", "MAVLINK", "TASK")
+RESERVED_NAMES = POSTED_FAMILIES
 """Prefixes other apps post (the MAVLink bridge, pNav, the helm): a reader may not mix in."""
 
 STANDARD_BAUDS = (300, 600, 1200, 1800, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400,
@@ -166,7 +168,7 @@ class VariablePrefix(Kind):
 
     def check_value(self, value: Any) -> bool:
         return isinstance(value, str) and bool(_PREFIX.fullmatch(value)) \
-            and value == value.upper() and value not in RESERVED_NAMES
+            and value == value.upper() and posted_family(value) is None
 
     def parse(self, entry: Entry) -> str:
         text = entry.value.strip()
@@ -174,21 +176,22 @@ class VariablePrefix(Kind):
             raise entry.error(f"{entry.key} must be a variable prefix: a letter then letters, "
                               f"digits or '_', got {text!r}")
         name = text.upper()
-        if name in RESERVED_NAMES:
-            raise entry.error(f"{entry.key} = {text}: {name}_* variables are posted by another "
-                              f"app (reserved: {', '.join(RESERVED_NAMES)}); choose another "
-                              f"prefix, e.g. S{name}")
+        family = posted_family(name)
+        if family is not None:
+            raise entry.error(f"{entry.key} = {text}: {family}_* variables are posted by "
+                              f"another app (reserved: {', '.join(RESERVED_NAMES)}); choose "
+                              f"another prefix, e.g. S{name}")
         return name
 
 
-class DevicePath(Text):
+class DevicePath(PathName):
     """A serial device: an absolute path (``/dev/ttyUSB0``, ``/dev/serial/by-id/…``)."""
 
     def describe(self) -> str:
         return "a device path such as /dev/ttyUSB0"
 
     def check_value(self, value: Any) -> bool:
-        return isinstance(value, str) and value.startswith("/") and \
+        return super().check_value(value) and value.startswith("/") and \
             not any(c.isspace() or c == "," for c in value)
 
     def parse(self, entry: Entry) -> str:
@@ -221,18 +224,20 @@ class BaudRate(Kind):
         return baud
 
 
+BAUD = Param("Baud", BaudRate(), 4800, "bit/s", "serial speed (ignored by a pseudo-terminal)")
+STALE = Param("Stale", Seconds(hi=3600.0), 5.0, "s", "no valid sentence for this long with "
+              "the port open is said once as <Name>_WARNING; NEVER: not watched")
+
 INSTRUMENT_SCHEMA = Schema(BLOCK_NAME, (
     Param("Name", VariablePrefix(), doc="prefix of the instrument's bus variables "
           "(Name = SGPS posts SGPS_X, SGPS_Y, ...): the source name pNav's queues list"),
     Param("Port", DevicePath(), doc="the serial device, e.g. /dev/ttyUSB0; prefer a "
           "/dev/serial/by-id/ path, which survives re-plugging"),
-    Param("Baud", BaudRate(), 4800, "bit/s", "serial speed (ignored by a pseudo-terminal)"),
+    BAUD,
     Param("Sentences", ChoiceList(Choice(SENTENCES)),
           doc="the sentence types to use; any other well-formed sentence is counted as "
               "dropped (unknown)"),
-    Param("Stale", Seconds(hi=3600.0), 5.0, "s",
-          "no valid sentence for this long with the port open is said once as "
-          "<Name>_WARNING; NEVER: not watched"),
+    STALE,
 ))
 """Every setting of an ``iSerial`` block, for the reader and for the parameter reference."""
 
@@ -256,8 +261,8 @@ class InstrumentConfig:
     name: str
     port: str
     sentences: tuple[str, ...]
-    baud: int = 4800
-    stale: float | None = 5.0
+    baud: int = BAUD.default
+    stale: float | None = STALE.default
     process: str = BLOCK_NAME
 
     @classmethod
@@ -345,8 +350,7 @@ class SerialInstrument(App):
         self._partial = b""
         self._discarding = False
         self._fresh = False
-        self._retry_at = -math.inf
-        self._retry_delay = RETRY_FIRST_S
+        self._backoff = Backoff(RETRY_FIRST_S, RETRY_MAX_S)
         self._opened_at = -math.inf
         self._said_down = False
         self._last_valid = 0.0
@@ -380,7 +384,7 @@ class SerialInstrument(App):
     # -- the port --------------------------------------------------------------------------
 
     def _open(self, now: float) -> None:
-        if now < self._retry_at:
+        if not self._backoff.due(now):
             return
         try:
             self.transport.open()
@@ -402,16 +406,14 @@ class SerialInstrument(App):
         why = exc.strerror or str(exc)
         if was_open:
             self._post("OPEN", 0.0, now)
-            if now - self._opened_at >= RETRY_MAX_S:
-                self._retry_delay = RETRY_FIRST_S  # it had worked: try again soon
+            if now - self._opened_at >= self._backoff.max_s:
+                self._backoff.succeeded()  # it had worked: try again soon
         if not self._said_down:
             self._said_down = True
             what = f"{self.config.port} lost" if was_open else \
                 f"cannot open {self.config.port}"
-            self._post("WARNING", f"{what} ({why}); retrying every {RETRY_FIRST_S:g}-"
-                       f"{RETRY_MAX_S:g} s", now)
-        self._retry_at = now + self._retry_delay
-        self._retry_delay = min(RETRY_MAX_S, self._retry_delay * 2)
+            self._post("WARNING", f"{what} ({why}); {self._backoff.describe()}", now)
+        self._backoff.failed(now)
 
     def _read(self, now: float) -> bytes:
         """Everything waiting, up to DRAIN_CAP bytes; never blocks."""

@@ -11,3 +11,14 @@ class LocatedError(ValueError):
         self.file = file
         self.line = line
         self.reason = reason
+
+
+class SettingError(Exception):
+    """A setting accepted at load that fails when used (a log folder made read-only, a disk
+    full, a file system that refuses the name): says which setting and why, in one line, so
+    the cause is not mistaken for another (the autopilot link's)."""
+
+    def __init__(self, setting: str, what: str, exc: BaseException) -> None:
+        why = getattr(exc, "strerror", None) or str(exc)
+        super().__init__(f"cannot open {what} ({setting}): {why}")
+        self.setting = setting

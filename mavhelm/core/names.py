@@ -31,3 +31,23 @@ NAVIGATION_FAILURE: Final = "NAVIGATION_FAILURE"
 """pNav's reason, posted once, when its filters go off-line for good (spec 2.2.11)."""
 END_MISSION: Final = "EndMission"
 """Posted to end the mission (spec 2.2.11): it starts every EndMission task of the helm."""
+
+POSTED_FAMILIES: Final = (
+    "GPS", "INS", "AP", "NAV", "DESIRED", "HELM", "MAVLINK", "TASK", "EKF", "LSQ", "WHEEL",
+    "TRUTH", "NAVIGATION", "MISSION", "THIRDPARTY", "RESTART",
+)
+"""Prefixes of the variable families the apps post (``<FAMILY>_*``): the MAVLink bridge's
+(GPS, INS, AP, WHEEL, TRUTH, MAVLINK), pNav's and its filters' (NAV, EKF, LSQ, NAVIGATION),
+the helm's (DESIRED, HELM, TASK, MISSION) and the requests it hears (THIRDPARTY, RESTART).
+A source of its own (an
+iSerial instrument) named after one would post into it, and pNav would route those variables
+as the filters' or the bridge's."""
+
+
+def posted_family(name: str) -> str | None:
+    """The family whose ``<FAMILY>_*`` variables ``<name>_*`` would collide with, if any."""
+    upper = name.upper()
+    for family in POSTED_FAMILIES:
+        if upper == family or upper.startswith(family + "_"):
+            return family
+    return None

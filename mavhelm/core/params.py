@@ -19,6 +19,7 @@ import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, ClassVar
 
 from mavhelm.core.mission import Block, Entry, MissionError
@@ -281,6 +282,90 @@ class Text(Kind):
             raise entry.error(f"{entry.key} needs a value")
         if len(text) > self.max_length:
             raise entry.error(f"{entry.key} is longer than {self.max_length} characters")
+        return text
+
+
+NAME_MAX = 255
+"""Bytes in one file or folder name (Linux and most file systems)."""
+PATH_MAX = 4096
+"""Bytes in a whole path (Linux)."""
+
+
+@dataclass(frozen=True)
+class PathName(Kind):
+    """A file-system path: no NUL or control character, each name at most NAME_MAX bytes and
+    the whole at most PATH_MAX. ``folder``: a folder the process writes into, so the path and
+    every part of it that already exists must be a folder: an existing file or a device
+    (``/dev/null``) there would fail only when the log opens, with a misleading error."""
+
+    folder: bool = False
+    label: ClassVar[str] = "a path"
+
+    def describe(self) -> str:
+        what = "a folder path (not an existing file or device)" if self.folder else "a path"
+        return f"{what}, no control characters, names of at most {NAME_MAX} bytes"
+
+    def check_value(self, value: Any) -> bool:
+        return isinstance(value, str) and self._problem(value) is None
+
+    def _problem(self, text: str) -> str | None:
+        if not text:
+            return "needs a value"
+        if any(ord(c) < 32 or ord(c) == 127 for c in text):
+            return "must not contain control characters (a NUL, a tab, an escape)"
+        if len(text.encode()) > PATH_MAX:
+            return f"is longer than {PATH_MAX} bytes"
+        if any(len(part.encode()) > NAME_MAX for part in text.split("/")):
+            return f"has a name longer than {NAME_MAX} bytes"
+        if self.folder:
+            return _not_a_folder(text)
+        return None
+
+    def parse(self, entry: Entry) -> str:
+        text = entry.value.strip()
+        problem = self._problem(text)
+        if problem is not None:
+            raise entry.error(f"{entry.key} {problem}, got {text[:80]!r}")
+        return text
+
+
+def _not_a_folder(text: str) -> str | None:
+    """Why ``text`` cannot be a folder to write into: the deepest part of it that exists is
+    a file or a device, not a folder (None when it can be)."""
+    path = Path(text).expanduser()
+    for part in (path, *path.parents):
+        try:
+            if not part.exists():
+                continue
+        except OSError:
+            return f"cannot be checked ({part})"
+        if part.is_dir():
+            return None
+        what = "an existing file" if part.is_file() else "a device or special file"
+        return f"names {what} ({part}), not a folder"
+    return None
+
+
+@dataclass(frozen=True)
+class FileStem(Kind):
+    """The start of a file name: one word of letters, digits, '_', '-' or '.', short enough
+    (``max_length``) that the time stamp and suffix added to it stay within NAME_MAX."""
+
+    max_length: int = 200
+    label: ClassVar[str] = "a file name stem"
+
+    def describe(self) -> str:
+        return (f"a file name stem: letters, digits, '_', '-' or '.', at most {self.max_length} "
+                "characters")
+
+    def check_value(self, value: Any) -> bool:
+        return isinstance(value, str) and bool(_WORD.fullmatch(value)) and \
+            len(value) <= self.max_length and value not in (".", "..")
+
+    def parse(self, entry: Entry) -> str:
+        text = entry.value.strip()
+        if not self.check_value(text):
+            raise entry.error(f"{entry.key} must be {self.describe()}, got {text[:80]!r}")
         return text
 
 

@@ -51,8 +51,8 @@ first alone (χ² test of its own Mahalanobis distance), then the survivors join
 joint test fails, the observation whose removal leaves the most consistent set is dropped and
 the test retried, so one bad range does not take good ones down with it.
 
-Safety (spec 2.2.11): a rate state beyond ``max_speed`` (10 m/s) or ``max_yaw_rate`` (π rad/s)
-is reset to zero with a warning; a position 1-σ beyond ``max_position_sigma`` raises
+Safety (spec 2.2.11): a rate state beyond ``max_speed`` (EKF_MAX_SPEED) or ``max_yaw_rate``
+(π rad/s) is reset to zero with a warning; a position 1-σ beyond ``max_position_sigma`` raises
 :class:`NavigationFailure` and takes the filter off-line.
 
 What comes from filterpy: the filter's state lives in a
@@ -93,6 +93,26 @@ from typing import Final
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from scipy.stats import chi2
+
+from mavhelm.nav.settings import (
+    EKF_BEACON_OFFSETS,
+    EKF_GATE,
+    EKF_MAX_SIGMA_XY,
+    EKF_MAX_SPEED,
+    EKF_MOBILE,
+    EKF_RANGE_SCALE,
+    EKF_SIGMA_HEADING,
+    EKF_SIGMA_XY,
+    EKF_SIGMA_Z,
+    EKF_TIDE,
+    EKF_XY_DYNAMICS,
+    EKF_YAW_BIAS,
+    EKF_YAW_DYNAMICS,
+    EKF_Z_DYNAMICS,
+    RADIANS_PER_DEGREE,
+    check_config,
+    setting,
+)
 
 I_X: Final = 0
 I_Y: Final = 1
@@ -162,75 +182,79 @@ class Beacon:
 
 @dataclass(frozen=True)
 class EKFConfig:
-    """The filter's settings; names follow the pNav block's ``EKF_*`` keys.
+    """The filter's settings. Fields built with ``setting(...)`` are the pNav block's
+    ``EKF_*`` keys (:mod:`mavhelm.nav.settings`: their default, range and unit are declared
+    there once); the others are the model's constants, not settings.
 
-    - ``xy_dynamics``, ``yaw_dynamics`` (EKF_XY_DYNAMICS, EKF_YAW_DYNAMICS, 0–10): process
-      noise, spectral density = setting/10 × ``FULL_SCALE_*_ACCEL``. 0 = never changes.
-    - ``sigma_xy`` (m), ``sigma_yaw`` (rad): initial 1-σ of the start (EKF_SIGMA_XX/YY, _HH);
-      ``sigma_velocity`` (m/s) and ``sigma_yaw_rate`` (rad/s) those of the rate states, which
-      start at zero (spec 2.2.4).
-    - ``estimate_yaw_bias``: add the heading-bias state. Off unless asked for: spec 2.2.10 allows
-      it only with a body velocity sensor *and* a position sensor (ranges or GPS); without both
-      it is unobservable and only blurs the heading. ``sigma_yaw_bias`` is its initial 1-σ
-      (rad), ``yaw_bias_noise`` its random walk (EKF_YAW_BIAS_NOISE, rad/√s: 1e-3 lets it
-      follow a gyro-integrated heading drifting ~0.5°/min).
-    - ``estimate_range_scale``: add one range scale factor shared by every beacon (ranges =
-      (1 + s) × distance + offset): a wrong sound speed for acoustic LBL, a clock-rate error
-      for radio ranging. ``sigma_range_scale`` its initial 1-σ, ``range_scale_noise`` its random
-      walk (1/√s). Only when there are beacons.
-    - ``sigma_beacon_offset`` (m): initial 1-σ of every beacon's range offset, around the
-      beacon's own prior; ``beacon_offset_noise`` its random walk (m/√s).
-    - ``gate_probability``: χ² acceptance probability of the data rejection (0.999: a lone
-      observation is refused beyond 3.3 σ).
-    - ``max_speed`` (m/s), ``max_yaw_rate`` (rad/s): rate states beyond these are reset.
-    - ``max_position_sigma`` (m): larger 1-σ of the position is a navigation failure.
-    - ``mobile``: False for a static vehicle (spec 2.2.2): no rate states, the pose a random
-      walk of the dynamics' strength.
+    - ``xy_dynamics``, ``yaw_dynamics``, ``z_dynamics`` (EKF_XY_DYNAMICS, EKF_YAW_DYNAMICS,
+      EKF_Z_DYNAMICS, 0–10): process noise, spectral density = setting/10 ×
+      ``FULL_SCALE_*_ACCEL``. 0 = never changes.
+    - ``sigma_xy`` (m, EKF_SIGMA_XY), ``sigma_yaw`` (rad, EKF_SIGMA_HEADING in degrees),
+      ``sigma_z`` (m, EKF_SIGMA_Z): initial 1-σ of the start; ``sigma_velocity`` (m/s) and
+      ``sigma_yaw_rate`` (rad/s) those of the rate states, which start at zero (spec 2.2.4).
+    - ``estimate_yaw_bias`` (EKF_YAW_BIAS): add the heading-bias state. Off unless asked for:
+      spec 2.2.10 allows it only with a body velocity sensor *and* a position sensor (ranges
+      or GPS); without both it is unobservable and only blurs the heading.
+      ``sigma_yaw_bias`` is its initial 1-σ (rad), ``yaw_bias_noise`` its random walk
+      (rad/√s: 1e-3 lets it follow a gyro-integrated heading drifting ~0.5°/min).
+    - ``estimate_range_scale`` (EKF_RANGE_SCALE): add one range scale factor shared by every
+      beacon (ranges = (1 + s) × distance + offset): a wrong sound speed for acoustic LBL, a
+      clock-rate error for radio ranging. ``sigma_range_scale`` its initial 1-σ,
+      ``range_scale_noise`` its random walk (1/√s). Only when there are beacons.
+    - ``learn_beacon_offsets`` (EKF_BEACON_OFFSETS): ``sigma_beacon_offset`` (m) is the
+      initial 1-σ of every beacon's range offset, around the beacon's own prior, and
+      ``beacon_offset_noise`` its random walk (m/√s); when false the offsets are held at
+      their priors.
+    - ``gate_probability`` (EKF_GATE): χ² acceptance probability of the data rejection
+      (0.999: a lone observation is refused beyond 3.3 σ).
+    - ``max_speed`` (m/s, EKF_MAX_SPEED), ``max_yaw_rate`` (rad/s): rate states beyond these
+      are reset.
+    - ``max_position_sigma`` (m, EKF_MAX_SIGMA_XY): larger 1-σ of the position is a
+      navigation failure.
+    - ``mobile`` (EKF_MOBILE): False for a static vehicle (spec 2.2.2): no rate states, the
+      pose a random walk of the dynamics' strength.
     - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
       (a hull that moves along its bow, as ``FIXEDSIDESLIP`` declares): the spec's uncoupled
       model otherwise keeps the old course through a turn, and the sideslip constraint then
       takes the difference out of the speed instead of the course.
-    - ``estimate_z``: add Z and Ż (``z_dynamics``, ``sigma_z`` its start 1-σ);
-      ``estimate_tide``: add the tide (``sigma_tide``, ``tide_noise`` m/√s). Tide alone with
-      a depth sensor is not observable: give ranges to beacons at known heights or a fixed
-      tide observation too.
+    - ``estimate_z``: add Z and Ż (a depth sensor or FIXEDDEPTH is declared);
+      ``estimate_tide`` (EKF_TIDE): add the tide (``sigma_tide``, ``tide_noise`` m/√s). Tide
+      alone with a depth sensor is not observable: give ranges to beacons at known heights
+      or a fixed tide observation too.
     """
 
-    xy_dynamics: float = 5.0
-    yaw_dynamics: float = 5.0
-    sigma_xy: float = 30.0
-    sigma_yaw: float = math.pi / 2
+    xy_dynamics: float = setting(EKF_XY_DYNAMICS)
+    yaw_dynamics: float = setting(EKF_YAW_DYNAMICS)
+    sigma_xy: float = setting(EKF_SIGMA_XY)
+    sigma_yaw: float = setting(EKF_SIGMA_HEADING, RADIANS_PER_DEGREE)
     sigma_velocity: float = 2.0
     sigma_yaw_rate: float = 0.5
-    estimate_yaw_bias: bool = False
+    estimate_yaw_bias: bool = setting(EKF_YAW_BIAS)
     sigma_yaw_bias: float = math.radians(10.0)
     yaw_bias_noise: float = 1e-3
-    estimate_range_scale: bool = True
+    estimate_range_scale: bool = setting(EKF_RANGE_SCALE)
     sigma_range_scale: float = 0.1
     range_scale_noise: float = 1e-5
+    learn_beacon_offsets: bool = setting(EKF_BEACON_OFFSETS)
     sigma_beacon_offset: float = 5.0
     beacon_offset_noise: float = 1e-3
-    gate_probability: float = 0.999
-    max_speed: float = 10.0
+    gate_probability: float = setting(EKF_GATE)
+    max_speed: float = setting(EKF_MAX_SPEED)
     max_yaw_rate: float = math.pi
-    max_position_sigma: float = 100.0
-    mobile: bool = True
+    max_position_sigma: float = setting(EKF_MAX_SIGMA_XY)
+    mobile: bool = setting(EKF_MOBILE)
     estimate_z: bool = False
-    z_dynamics: float = 5.0
-    sigma_z: float = 10.0
-    estimate_tide: bool = False
+    z_dynamics: float = setting(EKF_Z_DYNAMICS)
+    sigma_z: float = setting(EKF_SIGMA_Z)
+    estimate_tide: bool = setting(EKF_TIDE)
     sigma_tide: float = 1.0
     tide_noise: float = 1e-3
     velocity_follows_heading: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("xy_dynamics", "yaw_dynamics", "z_dynamics"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 10.0:
-                raise ValueError(f"{name} must be in [0, 10], got {value}")
-        for name in ("sigma_xy", "sigma_yaw", "sigma_velocity", "sigma_yaw_rate",
-                     "sigma_yaw_bias", "sigma_range_scale", "sigma_beacon_offset", "max_speed",
-                     "max_yaw_rate", "max_position_sigma", "sigma_z", "sigma_tide"):
+        check_config(self)
+        for name in ("sigma_velocity", "sigma_yaw_rate", "sigma_yaw_bias", "sigma_range_scale",
+                     "sigma_beacon_offset", "max_yaw_rate", "sigma_tide"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
@@ -239,8 +263,16 @@ class EKFConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be >= 0, got {value}")
-        if not 0.5 < self.gate_probability < 1.0:
-            raise ValueError(f"gate_probability must be in (0.5, 1), got {self.gate_probability}")
+
+    @property
+    def offset_sigma(self) -> float:
+        """Initial 1-σ of a beacon's offset: held at its prior when not learned."""
+        return self.sigma_beacon_offset if self.learn_beacon_offsets else 1e-6
+
+    @property
+    def offset_noise(self) -> float:
+        """Random walk of a beacon's offset: none when not learned."""
+        return self.beacon_offset_noise if self.learn_beacon_offsets else 0.0
 
 
 # ----------------------------------------------------------------------------- observations
@@ -461,6 +493,9 @@ class EKF:
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
+        self._good = (float(x), float(y), float(yaw))
+        """The last position known finite, where a numerical recovery restarts."""
+        self.recoveries = 0
 
     def _templates(self) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         """F = I + dt·C and Q = dt³/3·Q₃ + dt²/2·Q₂ + dt·Q₁ + dt·Q_walk: the constant
@@ -494,7 +529,7 @@ class EKF:
         walks = [(i, noise**2) for i, noise in (
             (self.i_bias, cfg.yaw_bias_noise), (self.i_tide, cfg.tide_noise),
             (self.i_scale, cfg.range_scale_noise)) if i is not None]
-        walks += [(i, cfg.beacon_offset_noise**2) for i in self._offset_index.values()]
+        walks += [(i, cfg.offset_noise**2) for i in self._offset_index.values()]
         pos, vel, q = (np.array(col) for col in zip(*pairs, strict=True))
         walk = np.array([i for i, _ in walks], dtype=int)
         walk_q = np.array([v for _, v in walks], dtype=float)
@@ -525,7 +560,7 @@ class EKF:
             var[self.i_scale] = cfg.sigma_range_scale**2
         for name, i in self._offset_index.items():
             state[i] = self.beacons[name].offset
-            var[i] = cfg.sigma_beacon_offset**2
+            var[i] = cfg.offset_sigma**2
         if not cfg.mobile:
             var[list(self._rate_indices())] = 0.0
         self.kf.x = state.reshape(-1, 1)
@@ -729,22 +764,23 @@ class EKF:
             v = vx * c + vy * s
             lx, ly, _lz = obs.lever
             w = x[I_VH]
-            zs, hs, Hs, rs = [], [], [], []
-            if obs.forward is not None:
+            parts: list[tuple[float | None, float, tuple[float, ...], float]] = [
+                (obs.forward, u + w * lx, (-s, c, -v, lx), obs.sigma_forward),
+                (obs.starboard, v - w * ly, (c, s, u, -ly), obs.sigma_starboard),
+                (obs.yaw_rate, w, (0.0, 0.0, 0.0, 1.0), obs.sigma_yaw_rate)]
+            zs: list[float] = []
+            hs: list[float] = []
+            Hs: list[np.ndarray] = []
+            rs: list[float] = []
+            for measured, predicted, (d_vx, d_vy, d_h, d_vh), sigma in parts:
+                if measured is None:
+                    continue
                 h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H], h[I_VH] = -s, c, -v, lx
-                zs.append(obs.forward), hs.append(u + w * lx), Hs.append(h)
-                rs.append(obs.sigma_forward**2)
-            if obs.starboard is not None:
-                h = np.zeros(n)
-                h[I_VX], h[I_VY], h[I_H], h[I_VH] = c, s, u, -ly
-                zs.append(obs.starboard), hs.append(v - w * ly), Hs.append(h)
-                rs.append(obs.sigma_starboard**2)
-            if obs.yaw_rate is not None:
-                h = np.zeros(n)
-                h[I_VH] = 1.0
-                zs.append(obs.yaw_rate), hs.append(w), Hs.append(h)
-                rs.append(obs.sigma_yaw_rate**2)
+                h[I_VX], h[I_VY], h[I_H], h[I_VH] = d_vx, d_vy, d_h, d_vh
+                zs.append(measured)
+                hs.append(predicted)
+                Hs.append(h)
+                rs.append(sigma**2)
             if not zs:
                 raise ValueError("a BodyVelocity observation with no part")
             return _Rows(np.array(zs), np.array(hs), np.array(Hs), np.array(rs),
@@ -822,13 +858,19 @@ class EKF:
             P[i, i] = variance
 
     def _tidy(self, symmetrise: bool = True) -> None:
-        """Wrap yaw, keep P symmetric, reset silly rates, check the uncertainty limit."""
+        """Wrap yaw, keep P symmetric, recover from a broken covariance, reset silly rates,
+        check the uncertainty limit."""
+        if symmetrise:
+            self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
         x, cfg = self.kf.x, self.config
+        if self._healthy():
+            self._good = (float(x[I_X, 0]), float(x[I_Y, 0]), float(x[I_H, 0]))
+        else:
+            self._recover()
+            x = self.kf.x
         x[I_H, 0] = wrap_angle(float(x[I_H, 0]))
         if self.i_bias is not None:
             x[self.i_bias, 0] = wrap_angle(float(x[self.i_bias, 0]))
-        if symmetrise:
-            self.kf.P = 0.5 * (self.kf.P + self.kf.P.T)
         if not cfg.mobile:
             self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
         speed = math.hypot(x[I_VX, 0], x[I_VY, 0])
@@ -849,6 +891,32 @@ class EKF:
                 f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
                 f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
             raise self.failure
+
+    def _healthy(self) -> bool:
+        """A finite state and a covariance with no negative variance and no correlation
+        beyond ±1: rounding in ``P − K S Kᵀ`` after an observation far more precise than the
+        prior can break both, and the filter would then divide by or take roots of them."""
+        x, P = self.kf.x, self.kf.P
+        if not (np.isfinite(x).all() and np.isfinite(P).all()):
+            return False
+        var = P.diagonal()
+        if (var < 0.0).any():
+            return False
+        bound = np.sqrt(np.outer(var, var)) * (1.0 + 1e-6) + 1e-300
+        return bool((np.abs(P) <= bound).all())
+
+    def _recover(self) -> None:
+        """Start again from the last sound position (the state's own if still finite) with the
+        configured start uncertainty, and say so: a numerical failure is the filter's, not the
+        vehicle's, so it is a warning and a re-initialisation, never an exception."""
+        x = self.kf.x[:, 0]
+        if np.isfinite(x[[I_X, I_Y, I_H]]).all():
+            self._good = (float(x[I_X]), float(x[I_Y]), float(x[I_H]))
+        px, py, yaw = self._good
+        self._initialise(px, py, yaw, None, None)
+        self.recoveries += 1
+        self.warnings.append(f"EKF covariance lost its positive definiteness at "
+                             f"t={self.t:.2f}: re-initialised to ({px:.1f}, {py:.1f})")
 
     def _require_online(self) -> None:
         if self.failure is not None:
@@ -880,16 +948,21 @@ class EKF:
         return Estimate(
             t=t, x=float(x[I_X]), y=float(x[I_Y]), yaw=float(x[I_H]),
             x_vel=float(x[I_VX]), y_vel=float(x[I_VY]), yaw_vel=float(x[I_VH]),
-            sigma_x=math.sqrt(P[I_X, I_X]), sigma_y=math.sqrt(P[I_Y, I_Y]),
-            sigma_yaw=math.sqrt(P[I_H, I_H]),
+            sigma_x=_root(P[I_X, I_X]), sigma_y=_root(P[I_Y, I_Y]),
+            sigma_yaw=_root(P[I_H, I_H]),
             yaw_bias=float(x[self.i_bias]) if self.i_bias is not None else 0.0,
             range_scale=float(x[self.i_scale]) if self.i_scale is not None else 0.0,
             offsets={name: float(x[i]) for name, i in self._offset_index.items()},
             z=float(x[self.i_z]) if self.i_z is not None else 0.0,
             z_vel=float(x[self.i_vz]) if self.i_vz is not None else 0.0,
             tide=float(x[self.i_tide]) if self.i_tide is not None else 0.0,
-            sigma_z=math.sqrt(P[self.i_z, self.i_z]) if self.i_z is not None else 0.0,
+            sigma_z=_root(P[self.i_z, self.i_z]) if self.i_z is not None else 0.0,
         )
+
+
+def _root(variance: float) -> float:
+    """A 1-σ from a variance that rounding may have taken a hair below zero."""
+    return math.sqrt(max(float(variance), 0.0))
 
 
 def _stack(rows: list[_Rows]) -> _Rows:

@@ -31,6 +31,8 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from mavhelm.nav.ekf import (
     EKF,
     Beacon,
@@ -45,9 +47,28 @@ from mavhelm.nav.ekf import (
     Tide,
     Yaw,
 )
-from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix
-from mavhelm.nav.sensor_channel import RejectionRule, SensorChannel
-from mavhelm.nav.sensors import FixedValue, Reading, fixed_observations
+from mavhelm.nav.lsq import DIVERGENCE_COUNT, LSQ, DivergenceMonitor, Fix
+from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
+from mavhelm.nav.sensors import (
+    BEACON,
+    FIXEDDEPTH,
+    FIXEDHEADING,
+    FIXEDSIDESLIP,
+    FIXEDTIDE,
+    FixedValue,
+    Reading,
+    fixed_observations,
+)
+from mavhelm.nav.settings import (
+    EKF_LAG,
+    LSQ_DIVERGENCE,
+    LSQ_OFFSET,
+    LSQ_TIMEOUT,
+    LSQ_WINDOW,
+    check_config,
+    setting,
+)
+from mavhelm.nav.settings import LSQ as LSQ_SETTING
 
 BOOT_FIXES = 3
 """LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
@@ -76,23 +97,27 @@ class Start:
 
 @dataclass(frozen=True)
 class FusionConfig:
-    """The pNav block's filter settings, already checked by its schema."""
+    """The pNav block's filter settings: each ``setting(...)`` field is declared once, by the
+    ``Param`` it names (default, range, unit); ``ekf`` and ``start`` are built from theirs."""
 
     ekf: EKFConfig = field(default_factory=EKFConfig)
-    beacons: tuple[Beacon, ...] = ()
-    lag: float = 0.0
+    beacons: tuple[Beacon, ...] = setting(BEACON)
+    lag: float = setting(EKF_LAG)
     start: Start | None = None
-    lsq: bool = True
-    lsq_window: float = 5.0
-    lsq_timeout: float | None = 30.0
-    lsq_offset: bool = False
-    divergence_distance: float = 20.0
-    divergence_count: int = 6
-    fixed_depth: FixedValue | None = None
-    fixed_heading: FixedValue | None = None
-    fixed_tide: FixedValue | None = None
-    fixed_sideslip: FixedValue | None = None
-    rejection: tuple[RejectionRule, ...] = ()
+    lsq: bool = setting(LSQ_SETTING)
+    lsq_window: float = setting(LSQ_WINDOW)
+    lsq_timeout: float | None = setting(LSQ_TIMEOUT)
+    lsq_offset: bool = setting(LSQ_OFFSET)
+    divergence_distance: float = setting(LSQ_DIVERGENCE)
+    divergence_count: int = DIVERGENCE_COUNT
+    fixed_depth: FixedValue | None = setting(FIXEDDEPTH)
+    fixed_heading: FixedValue | None = setting(FIXEDHEADING)
+    fixed_tide: FixedValue | None = setting(FIXEDTIDE)
+    fixed_sideslip: FixedValue | None = setting(FIXEDSIDESLIP)
+    rejection: tuple[RejectionRule, ...] = setting(LSQ_REJECTION)
+
+    def __post_init__(self) -> None:
+        check_config(self)
 
 
 def describe(obs: Observation) -> str:
@@ -180,35 +205,15 @@ class Fusion:
         try:
             if self.ekf is None and self.config.start is not None:
                 self._boot_at_start(horizon)
-            sliced = False
-            while self._queue and self._queue[0][0] <= horizon:
-                t = self._queue[0][0]
-                batch = []
-                while self._queue and self._queue[0][0] == t:
-                    batch.append(heapq.heappop(self._queue)[2])
-                self._slice(t, batch)
-                sliced = True
+            sliced = self._drain(horizon)
             self.horizon = horizon
-            fixed = (fixed_observations(horizon, self.config.fixed_depth,
-                                        self.config.fixed_heading, self.config.fixed_tide,
-                                        self.config.fixed_sideslip)
-                     if self.ekf is not None else [])
-            if self.ekf is not None and (fixed or not sliced):
-                # a tick with data leaves the filter at its newest slice, and the forecast
-                # takes it on to now; a tick without (or with fixed observations to apply)
-                # predicts to the horizon, so a filter starved of data still grows
-                # uncertain, and fails, in time
-                self.ekf.advance(horizon)
-                if fixed:
-                    result = self.ekf.update(fixed)
-                    for v in result.verdicts:
-                        if not v.accepted:
-                            self.olog.append(f"{horizon:.3f} fixed {type(v.obs).__name__} "
-                                             f"{describe(v.obs)} rejected {v.d2:.2f}")
+            self._tick_fixed(horizon, sliced)
             self._check_lsq(horizon)
         except NavigationFailure as exc:
             self._fail(str(exc))
             return None
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
+            self._restart(exc)
         if self.ekf is None:
             return None
         if self.logging:
@@ -216,6 +221,49 @@ class Fusion:
         self.warnings.extend(self.ekf.warnings)
         self.ekf.warnings.clear()
         return self._forecast(now)
+
+    def _drain(self, horizon: float) -> bool:
+        """Every queued slice up to ``horizon``, in time order; whether there was one."""
+        sliced = False
+        while self._queue and self._queue[0][0] <= horizon:
+            t = self._queue[0][0]
+            batch = []
+            while self._queue and self._queue[0][0] == t:
+                batch.append(heapq.heappop(self._queue)[2])
+            self._slice(t, batch)
+            sliced = True
+        return sliced
+
+    def _tick_fixed(self, horizon: float, sliced: bool) -> None:
+        """A tick with data leaves the filter at its newest slice, and the forecast takes it
+        on to now; a tick without (or with fixed observations to apply) predicts to the
+        horizon, so a filter starved of data still grows uncertain, and fails, in time."""
+        if self.ekf is None:
+            return
+        cfg = self.config
+        fixed = fixed_observations(horizon, cfg.fixed_depth, cfg.fixed_heading, cfg.fixed_tide,
+                                   cfg.fixed_sideslip)
+        if not fixed and sliced:
+            return
+        self.ekf.advance(horizon)
+        if not fixed:
+            return
+        for v in self.ekf.update(fixed).verdicts:
+            if not v.accepted:
+                self.olog.append(f"{horizon:.3f} fixed {type(v.obs).__name__} "
+                                 f"{describe(v.obs)} rejected {v.d2:.2f}")
+
+    def _restart(self, exc: Exception) -> None:
+        """A numerical failure inside the filter (a singular innovation, a non-finite value):
+        drop the EKF, which boots again from the start, the LSQ or the next fix, and say so;
+        nothing escapes the tick."""
+        if self.ekf is not None:
+            self.warnings.extend(self.ekf.warnings)
+        self.ekf = None
+        self._stream.clear()
+        self.reinitialisations += 1
+        self.warnings.append(f"EKF numerical failure ({type(exc).__name__}: {exc}): the "
+                             "filter starts again")
 
     def _forecast(self, now: float) -> Estimate:
         """The lagged estimate brought forward to ``now`` (spec 2.2.7), the filter itself left

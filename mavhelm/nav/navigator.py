@@ -31,19 +31,52 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import heading_to_yaw, yaw_to_heading
 from mavhelm.core.mission import Block, Entry, Mission, MissionError
 from mavhelm.core.names import END_MISSION, NAVIGATION_FAILURE, NO_SOURCE
-from mavhelm.core.params import Boolean, Number, Param, Schema, Seconds, Text, Word
+from mavhelm.core.params import Boolean, FileStem, Param, PathName, Schema
 from mavhelm.nav.ekf import EKFConfig, Estimate
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
 from mavhelm.nav.priority_queue import PriorityQueue, QueueSpec
-from mavhelm.nav.sensor_channel import RejectionLine
+from mavhelm.nav.sensor_channel import LSQ_REJECTION
 from mavhelm.nav.sensors import (
+    BEACON,
+    FIXEDDEPTH,
+    FIXEDHEADING,
+    FIXEDSIDESLIP,
+    FIXEDTIDE,
+    LBL_SOUND_SPEED,
     SENSOR_TYPES,
     SOUND_SPEED,
-    BeaconLine,
-    FixedLine,
     SensorLine,
     SensorReader,
     SensorSpec,
+    noise_range,
+)
+from mavhelm.nav.settings import (
+    EKF_BEACON_OFFSETS,
+    EKF_GATE,
+    EKF_HEADING,
+    EKF_LAG,
+    EKF_MAX_SIGMA_XY,
+    EKF_MAX_SPEED,
+    EKF_MOBILE,
+    EKF_RANGE_SCALE,
+    EKF_SIGMA_HEADING,
+    EKF_SIGMA_XY,
+    EKF_SIGMA_Z,
+    EKF_START,
+    EKF_TIDE,
+    EKF_X,
+    EKF_XY_DYNAMICS,
+    EKF_Y,
+    EKF_YAW_BIAS,
+    EKF_YAW_DYNAMICS,
+    EKF_Z,
+    EKF_Z_DYNAMICS,
+    LSQ,
+    LSQ_DIVERGENCE,
+    LSQ_OFFSET,
+    LSQ_TIMEOUT,
+    LSQ_WINDOW,
+    config_from,
 )
 
 QUEUE_KEYS: Final = (
@@ -66,8 +99,15 @@ QUEUE_KEYS: Final = (
 degrees clockwise from north; configure one of the two, the navigator posts both. Velocities
 are in earth coordinates (spec 2)."""
 
-_DYNAMICS = Number(0.0, 10.0)
-_SIGMA = Number(0.0, 1e5, lo_open=True)
+NAV_LOG = Param("NAV_LOG", Boolean(), True, "", "write the .olog and .xlog when filters run",
+                attr="nav_log")
+NAV_LOG_PATH = Param("NAV_LOG_PATH", PathName(folder=True), None, "", "folder of the nav "
+                     "logs (default: the alog's)", attr="nav_log_path")
+NAV_LOG_STEM = Param("NAV_LOG_STEM", FileStem(), "pNav", "", "file name stem of the nav logs",
+                     attr="nav_log_stem")
+NAV_LOG_TIMESTAMP = Param("NAV_LOG_TIMESTAMP", Boolean(), True, "", "put the creation time in "
+                          "the file names", attr="nav_log_timestamp")
+NAV_LOG_SETTINGS: Final = (NAV_LOG, NAV_LOG_PATH, NAV_LOG_STEM, NAV_LOG_TIMESTAMP)
 
 NAV_SCHEMA = Schema(
     "pNav",
@@ -75,77 +115,14 @@ NAV_SCHEMA = Schema(
              attr=key.lower()) for key in QUEUE_KEYS),
      *(Param(f"SENSOR_{kind}", SensorLine(kind), [], repeat=True,
              attr=f"sensor_{kind.lower()}",
-             doc=f"a {kind} sensor for the filters (spec 2.2.1)") for kind in SENSOR_TYPES),
-     Param("BEACON", BeaconLine(), [], repeat=True, attr="beacons",
-           doc="a range or LBL beacon (TAT: its turn-around time)"),
-     Param("FIXEDDEPTH", FixedLine(Number(-1e4, 1e4), "m"), None, attr="fixed_depth",
-           doc="an artificial depth observation every tick (a surface craft: 0 @ 0.1)"),
-     Param("FIXEDHEADING", FixedLine(Number(-360.0, 360.0), "deg"), None,
-           attr="fixed_heading", doc="an artificial heading observation every tick"),
-     Param("FIXEDTIDE", FixedLine(Number(-1e3, 1e3), "m"), None, attr="fixed_tide",
-           doc="an artificial tide observation every tick (pins Z = 0 to the surface)"),
-     Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s"), None,
-           attr="fixed_sideslip", doc="an artificial starboard-speed observation every tick: "
-           "the hull moves along its bow (0 @ 0.3 for a boat in little current); the EKF "
-           "then also turns its velocity with the yaw rate"),
-     Param("EKF_X", Number(-1e5, 1e5), None, "m", "EKF start X (with EKF_Y; else the LSQ or "
-           "the first XY fix starts it)", attr="ekf_x"),
-     Param("EKF_Y", Number(-1e5, 1e5), None, "m", "EKF start Y", attr="ekf_y"),
-     Param("EKF_Z", Number(-1e4, 1e4), 0.0, "m", "EKF start Z (up)", attr="ekf_z"),
-     Param("EKF_HEADING", Number(-360.0, 360.0), None, "deg",
-           "EKF start heading (default: the first orientation reading, else unknown)",
-           attr="ekf_heading"),
-     Param("EKF_SIGMA_XY", _SIGMA, 30.0, "m", "1-σ of the start position", attr="ekf_sigma_xy"),
-     Param("EKF_SIGMA_HEADING", Number(0.0, 360.0, lo_open=True), 90.0, "deg",
-           "1-σ of the start heading", attr="ekf_sigma_heading"),
-     Param("EKF_SIGMA_Z", _SIGMA, 10.0, "m", "1-σ of the start Z", attr="ekf_sigma_z"),
-     Param("EKF_XY_DYNAMICS", _DYNAMICS, 5.0, "", "0 (never changes) to 10 (very mobile)",
-           attr="ekf_xy_dynamics"),
-     Param("EKF_YAW_DYNAMICS", _DYNAMICS, 5.0, "", "0 to 10, as above, for yaw",
-           attr="ekf_yaw_dynamics"),
-     Param("EKF_Z_DYNAMICS", _DYNAMICS, 5.0, "", "0 to 10, as above, for Z",
-           attr="ekf_z_dynamics"),
-     Param("EKF_MOBILE", Boolean(), True, "", "false: a static vehicle (no rate states)",
-           attr="ekf_mobile"),
-     Param("EKF_LAG", Number(0.0, 4.0), 0.0, "s", "run the EKF this far behind time "
-           "(spec 2.2.7; the LBL listen window)", attr="ekf_lag"),
-     Param("EKF_YAW_BIAS", Boolean(), False, "", "estimate the orientation sensors' heading "
-           "bias (needs a BODY_VEL and a position sensor, spec 2.2.10)", attr="ekf_yaw_bias"),
-     Param("EKF_TIDE", Boolean(), False, "", "estimate the tide (needs depth and beacon "
-           "ranges, or FIXEDTIDE)", attr="ekf_tide"),
-     Param("EKF_RANGE_SCALE", Boolean(), True, "", "learn a range scale error shared by "
-           "every beacon (sound speed, clock rate)", attr="ekf_range_scale"),
-     Param("EKF_BEACON_OFFSETS", Boolean(), True, "", "learn each beacon's range offset "
-           "(false: offsets held at zero)", attr="ekf_beacon_offsets"),
-     Param("EKF_GATE", Number(0.9, 0.999999), 0.999, "", "χ² acceptance probability of the "
-           "data rejection", attr="ekf_gate"),
-     Param("EKF_MAX_SIGMA_XY", Number(1.0, 1e5), 100.0, "m", "position 1-σ beyond this is a "
-           "navigation failure", attr="ekf_max_sigma_xy"),
-     Param("EKF_MAX_SPEED", Number(0.1, 100.0), 10.0, "m/s", "speed states beyond this are "
-           "reset", attr="ekf_max_speed"),
-     Param("LSQ", Boolean(), True, "", "run the LSQ on beacon ranges (boots and watches the "
-           "EKF)", attr="lsq"),
-     Param("LSQ_WINDOW", Number(0.5, 60.0), 5.0, "s", "ranges older than this are not "
-           "combined into a fix", attr="lsq_window"),
-     Param("LSQ_TIMEOUT", Seconds(3600.0), 30.0, "s", "no LSQ fix for this long is a "
-           "navigation failure (NEVER: never)", attr="lsq_timeout"),
-     Param("LSQ_OFFSET", Boolean(), False, "", "solve a common range offset too (needs a "
-           "fourth beacon)", attr="lsq_offset"),
-     Param("LSQ_REJECTION", RejectionLine(), [], repeat=True, attr="lsq_rejection",
-           doc="consensus outlier rejection on a ranging sensor's channels (spec 2.2.6)"),
-     Param("LSQ_DIVERGENCE", Number(1.0, 1e4), 20.0, "m", "an LSQ fix this far from the EKF "
-           "is a disagreement; 6 in a row re-initialise the EKF", attr="lsq_divergence"),
-     Param("LBL_SOUND_SPEED", Number(1300.0, 1700.0), SOUND_SPEED, "m/s",
-           "speed of sound for LBL travel times", attr="sound_speed"),
-     Param("NAV_LOG", Boolean(), True, "", "write the .olog and .xlog when filters run",
-           attr="nav_log"),
-     Param("NAV_LOG_PATH", Text(), None, "", "folder of the nav logs (default: the alog's)",
-           attr="nav_log_path"),
-     Param("NAV_LOG_STEM", Word(), "pNav", "", "file name stem of the nav logs",
-           attr="nav_log_stem"),
-     Param("NAV_LOG_TIMESTAMP", Boolean(), True, "", "put the creation time in the file "
-           "names", attr="nav_log_timestamp"),
-     ),
+             doc=f"a {kind} sensor for the filters (spec 2.2.1); noise {noise_range(kind)}")
+       for kind in SENSOR_TYPES),
+     BEACON, FIXEDDEPTH, FIXEDHEADING, FIXEDTIDE, FIXEDSIDESLIP,
+     *EKF_START, EKF_SIGMA_XY, EKF_SIGMA_HEADING, EKF_SIGMA_Z, EKF_XY_DYNAMICS,
+     EKF_YAW_DYNAMICS, EKF_Z_DYNAMICS, EKF_MOBILE, EKF_LAG, EKF_YAW_BIAS, EKF_TIDE,
+     EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE, EKF_MAX_SIGMA_XY, EKF_MAX_SPEED,
+     LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, LSQ_DIVERGENCE, LBL_SOUND_SPEED,
+     *NAV_LOG_SETTINGS),
 )
 """A pNav block: its priority queues, its sensors, and the filters' settings."""
 
@@ -167,79 +144,81 @@ def _entry(block: Block, *keys: str) -> Entry:
 
 def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec], Fusion] | None:
     """The filters a pNav block asks for, or None when it declares no sensor."""
-    sensor_keys = [f"SENSOR_{kind}" for kind in SENSOR_TYPES]
     sensors = [spec for kind in SENSOR_TYPES for spec in settings[f"sensor_{kind.lower()}"]]
     if not sensors:
-        for key in ("BEACON", "LSQ_REJECTION"):
-            if settings[key.lower() if key != "BEACON" else "beacons"]:
-                raise _entry(block, key).error(f"{key} without any SENSOR_* line: declare "
-                                               "the sensors the filters read")
+        for param in (BEACON, LSQ_REJECTION):
+            if settings[param.attribute]:
+                raise _entry(block, param.name).error(
+                    f"{param.name} without any SENSOR_* line: declare the sensors the filters "
+                    "read")
         return None
-    names = [s.name for s in sensors]
-    seen: set[str] = set()
+    _check_names(block)
+    _check_ranging(settings, sensors, block)
+    has_depth = _check_filters(settings, sensors, block)
+    ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
+                      velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None)
+    config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings))
+    return sensors, Fusion(config)
+
+
+def _check_names(block: Block) -> None:
+    """Each sensor and each beacon is named once."""
+    sensor_keys = {f"SENSOR_{kind}" for kind in SENSOR_TYPES}
+    seen: dict[str, set[str]] = {"sensor": set(), "BEACON": set()}
     for entry in block.entries:
-        if entry.key.upper() in sensor_keys:
-            name = entry.value.replace("→", "->").partition("->")[2].split("@")[0]
-            name = name.split("~")[0].strip()
-            if name in seen:
-                raise entry.error(f"sensor name {name!r} is declared twice; name each sensor "
-                                  "once")
-            seen.add(name)
-    beacons = settings["beacons"]
-    ids: set[str] = set()
-    for entry, beacon in zip([e for e in block.entries if e.key.upper() == "BEACON"], beacons,
-                             strict=True):
-        if beacon.name in ids:
-            raise entry.error(f"BEACON {beacon.name} is declared twice")
-        ids.add(beacon.name)
+        key = entry.key.upper()
+        if key in sensor_keys:
+            what, name = "sensor", SensorLine(key[len("SENSOR_"):]).parse(entry).name
+        elif key == BEACON.name:
+            what, name = "BEACON", BEACON.kind.parse(entry).name
+        else:
+            continue
+        if name in seen[what]:
+            raise entry.error(f"sensor name {name!r} is declared twice; name each sensor once"
+                              if what == "sensor" else f"BEACON {name} is declared twice")
+        seen[what].add(name)
+
+
+def _check_ranging(settings: dict, sensors: list[SensorSpec], block: Block) -> None:
+    """Ranging sensors need beacons; rejection rules name ranging sensors."""
     ranging = [s for s in sensors if s.type in ("LBL", "RANGE")]
-    if ranging and not beacons:
+    if ranging and not settings[BEACON.attribute]:
         raise _entry(block, f"SENSOR_{ranging[0].type}").error(
             f"SENSOR_{ranging[0].type} {ranging[0].name} needs BEACON lines (id @ x,y,z)")
-    for rule in settings["lsq_rejection"]:
+    for rule in settings[LSQ_REJECTION.attribute]:
         if rule.sensor not in {s.name for s in ranging}:
-            raise _entry(block, "LSQ_REJECTION").error(
+            raise _entry(block, LSQ_REJECTION.name).error(
                 f"LSQ_REJECTION names {rule.sensor!r}, which is not a declared LBL or RANGE "
-                f"sensor (sensors: {', '.join(names)})")
-    if (settings["ekf_x"] is None) != (settings["ekf_y"] is None):
-        raise _entry(block, "EKF_X", "EKF_Y").error(
+                f"sensor (sensors: {', '.join(s.name for s in sensors)})")
+
+
+def _check_filters(settings: dict, sensors: list[SensorSpec], block: Block) -> bool:
+    """The filter settings that depend on each other; returns whether Z is estimated."""
+    if (settings[EKF_X.attribute] is None) != (settings[EKF_Y.attribute] is None):
+        raise _entry(block, EKF_X.name, EKF_Y.name).error(
             "give both EKF_X and EKF_Y (the EKF's start) or neither")
-    has_depth = any(s.type == "DEPTH" for s in sensors) or settings["fixed_depth"] is not None
-    if settings["ekf_tide"] and not has_depth:
-        raise _entry(block, "EKF_TIDE").error(
+    has_depth = (any(s.type == "DEPTH" for s in sensors)
+                 or settings[FIXEDDEPTH.attribute] is not None)
+    if settings[EKF_TIDE.attribute] and not has_depth:
+        raise _entry(block, EKF_TIDE.name).error(
             "EKF_TIDE needs a DEPTH sensor or FIXEDDEPTH (depth = tide − Z)")
-    if settings["fixed_tide"] is not None and not settings["ekf_tide"]:
-        raise _entry(block, "FIXEDTIDE").error("FIXEDTIDE needs EKF_TIDE = true")
-    ekf = EKFConfig(
-        xy_dynamics=settings["ekf_xy_dynamics"], yaw_dynamics=settings["ekf_yaw_dynamics"],
-        z_dynamics=settings["ekf_z_dynamics"], sigma_xy=settings["ekf_sigma_xy"],
-        sigma_yaw=math.radians(settings["ekf_sigma_heading"]),
-        estimate_yaw_bias=settings["ekf_yaw_bias"],
-        estimate_range_scale=settings["ekf_range_scale"],
-        beacon_offset_noise=1e-3 if settings["ekf_beacon_offsets"] else 0.0,
-        sigma_beacon_offset=5.0 if settings["ekf_beacon_offsets"] else 1e-6,
-        gate_probability=settings["ekf_gate"],
-        max_speed=settings["ekf_max_speed"], max_position_sigma=settings["ekf_max_sigma_xy"],
-        mobile=settings["ekf_mobile"], estimate_z=has_depth,
-        sigma_z=settings["ekf_sigma_z"], estimate_tide=settings["ekf_tide"],
-        velocity_follows_heading=settings["fixed_sideslip"] is not None)
-    start = None
-    if settings["ekf_x"] is not None:
-        heading = settings["ekf_heading"]
-        start = Start(settings["ekf_x"], settings["ekf_y"],
-                      0.0 if heading is None else heading_to_yaw(heading),
-                      settings["ekf_sigma_xy"],
-                      math.pi if heading is None else math.radians(
-                          settings["ekf_sigma_heading"]), z=settings["ekf_z"])
-    config = FusionConfig(
-        ekf=ekf, beacons=tuple(beacons), lag=settings["ekf_lag"], start=start,
-        lsq=settings["lsq"], lsq_window=settings["lsq_window"],
-        lsq_timeout=settings["lsq_timeout"], lsq_offset=settings["lsq_offset"],
-        divergence_distance=settings["lsq_divergence"],
-        fixed_depth=settings["fixed_depth"], fixed_heading=settings["fixed_heading"],
-        fixed_tide=settings["fixed_tide"], fixed_sideslip=settings["fixed_sideslip"],
-        rejection=tuple(settings["lsq_rejection"]))
-    return sensors, Fusion(config)
+    if settings[FIXEDTIDE.attribute] is not None and not settings[EKF_TIDE.attribute]:
+        raise _entry(block, FIXEDTIDE.name).error("FIXEDTIDE needs EKF_TIDE = true")
+    return has_depth
+
+
+def _start(settings: dict) -> Start | None:
+    """The EKF's start pose when EKF_X and EKF_Y give one (heading unknown without
+    EKF_HEADING: yaw 0 with a σ of π)."""
+    if settings[EKF_X.attribute] is None:
+        return None
+    heading = settings[EKF_HEADING.attribute]
+    sigma_heading = settings[EKF_SIGMA_HEADING.attribute]
+    return Start(settings[EKF_X.attribute], settings[EKF_Y.attribute],
+                 0.0 if heading is None else heading_to_yaw(heading),
+                 settings[EKF_SIGMA_XY.attribute],
+                 math.pi if heading is None else math.radians(sigma_heading),
+                 z=settings[EKF_Z.attribute])
 
 
 _UNSET: Final = object()
@@ -292,10 +271,10 @@ class Navigator(App):
             raise block.error("pNav needs at least one priority queue, e.g. X = GPS @ 2.0")
         filters = fusion_from_settings(settings, block)
         sensors, fusion = filters if filters is not None else (None, None)
-        log_settings = {k: settings[k] for k in ("nav_log", "nav_log_path", "nav_log_stem",
-                                                 "nav_log_timestamp")}
+        log_settings = {p.attribute: settings[p.attribute] for p in NAV_LOG_SETTINGS}
         return cls(bus, queues, sensors=sensors, fusion=fusion,
-                   sound_speed=settings["sound_speed"], log=log, log_settings=log_settings)
+                   sound_speed=settings[LBL_SOUND_SPEED.attribute], log=log,
+                   log_settings=log_settings)
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission, log: NavLogSink | None = None

@@ -108,16 +108,7 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
     """Run the navigator of a ``pNav`` block over ``messages`` (any order; sorted by time)."""
     ordered = sorted((m for m in messages if not m.name.startswith(OWN_OUTPUTS)),
                      key=lambda m: m.time)
-    truth = Track()
-    for m in ordered:
-        if m.name in (TRUTH_X, TRUTH_Y) and m.is_double:
-            if m.name == TRUTH_X:
-                truth.t.append(m.time)
-                truth.x.append(m.double)
-            else:
-                truth.y.append(m.double)
-    if len(truth.x) != len(truth.y):
-        truth = _paired_truth(ordered)
+    truth = _truth(ordered)
     start = ordered[0].time if ordered else 0.0
     clock = SimClock(start)
     bus = Bus(clock)
@@ -125,13 +116,11 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
     bus.subscribe(nav.name, nav.subscriptions())
     wanted = {f"{s}_{k}" for s in SCORED for k in ("X", "Y")}
     bus.subscribe("replay", wanted | {"NAV_WARNING"})
-    tracks: dict[str, Track] = {}
-    pending: dict[tuple[str, float], float] = {}
+    recorder = _Recorder()
     subscribed = nav.subscriptions() | wanted
     ticks = 0
     i = 0
     now = start
-    warnings: list[str] = []
     while i < len(ordered):
         # the first tick boundary at or after the next message: data are read in ticks
         k = math.ceil((ordered[i].time - start) / period - 1e-9)
@@ -145,26 +134,51 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
         nav.on_mail(bus.fetch(nav.name), now)
         nav.iterate(now)
         ticks += 1
-        for m in bus.fetch("replay"):
-            if m.name == "NAV_WARNING":
-                warnings.append(m.string)
-                continue
-            source, _, axis = m.name.rpartition("_")
-            other = "Y" if axis == "X" else "X"
-            partner = pending.pop((f"{source}_{other}", m.time), None)
-            if partner is None:
-                pending[(m.name, m.time)] = m.double
-                continue
-            x, y = (m.double, partner) if axis == "X" else (partner, m.double)
-            track = tracks.setdefault(source, Track())
-            track.t.append(m.time)
-            track.x.append(x)
-            track.y.append(y)
+        recorder.take(bus.fetch("replay"))
         now += period
     fusion = nav.fusion
     span = (ordered[-1].time - start) if ordered else 0.0
-    return ReplayResult(tracks, truth, nav, ticks, span, warnings,
+    return ReplayResult(recorder.tracks, truth, nav, ticks, span, recorder.warnings,
                         fusion.failure if fusion is not None else None)
+
+
+@dataclass
+class _Recorder:
+    """The scored sources' positions (X and Y paired by time stamp) and the warnings."""
+
+    tracks: dict[str, Track] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    pending: dict[tuple[str, float], float] = field(default_factory=dict)
+
+    def take(self, mail: list[Message]) -> None:
+        for m in mail:
+            if m.name == "NAV_WARNING":
+                self.warnings.append(m.string)
+                continue
+            source, _, axis = m.name.rpartition("_")
+            other = "Y" if axis == "X" else "X"
+            partner = self.pending.pop((f"{source}_{other}", m.time), None)
+            if partner is None:
+                self.pending[(m.name, m.time)] = m.double
+                continue
+            x, y = (m.double, partner) if axis == "X" else (partner, m.double)
+            track = self.tracks.setdefault(source, Track())
+            track.t.append(m.time)
+            track.x.append(x)
+            track.y.append(y)
+
+
+def _truth(ordered: list[Message]) -> Track:
+    """TRUTH_X/TRUTH_Y as one track: in order when they alternate, else paired by time."""
+    truth = Track()
+    for m in ordered:
+        if m.name in (TRUTH_X, TRUTH_Y) and m.is_double:
+            if m.name == TRUTH_X:
+                truth.t.append(m.time)
+                truth.x.append(m.double)
+            else:
+                truth.y.append(m.double)
+    return truth if len(truth.x) == len(truth.y) else _paired_truth(ordered)
 
 
 def _paired_truth(messages: list[Message]) -> Track:

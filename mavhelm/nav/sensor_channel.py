@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from mavhelm.core.mission import Entry
-from mavhelm.core.params import Kind, Number
+from mavhelm.core.params import Kind, Number, Param
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,11 @@ class RejectionLine(Kind):
         tolerance = Number(0.0, 1e4, lo_open=True).parse_text(parts[1], entry,
                                                               f"{entry.key} tolerance")
         return RejectionRule(sensor, int(points), tolerance)
+
+
+LSQ_REJECTION = Param("LSQ_REJECTION", RejectionLine(), [], repeat=True, attr="lsq_rejection",
+                      doc="consensus outlier rejection on a ranging sensor's channels "
+                      "(spec 2.2.6)")
 
 
 class SensorChannel:

@@ -53,7 +53,7 @@ from typing import Any, ClassVar, Final
 from mavhelm.core.bus import Message
 from mavhelm.core.geodesy import heading_to_yaw
 from mavhelm.core.mission import Entry
-from mavhelm.core.params import Kind, Number
+from mavhelm.core.params import Kind, Number, Param
 from mavhelm.nav.ekf import (
     Beacon,
     BodyVelocity,
@@ -79,8 +79,26 @@ DEFAULT_NOISE: Final = {"XY": (3.0,), "ORIENTATION": (2.0,), "DEPTH": (0.1,),
 """1-σ noise of a sensor line that gives none, in the units above. BODY_VEL's starboard
 default is wider than its forward one: for wheel odometry the "does not crab" constraint."""
 
-SOUND_SPEED: Final = 1500.0
-"""m/s: speed of sound in sea water, for LBL travel times (``LBL_SOUND_SPEED``)."""
+NOISE_MIN: Final = {"XY": (0.01,), "ORIENTATION": (0.01,), "DEPTH": (0.001,),
+                    "ALTITUDE": (0.001,), "BODY_VEL": (0.001, 0.001, 0.01),
+                    "LBL": (1e-6,), "RANGE": (0.001,)}
+"""The least 1-σ a sensor line may claim, in the units above: finer than any such sensor
+measures (1 cm GPS RTK, 0.01° a gyrocompass, 1 µs an LBL clock = 0.75 mm), and far enough
+above zero that the filter's covariance stays positive in double precision."""
+
+NOISE_MAX: Final = 1e4
+"""The largest 1-σ a noise or fixed observation may give, in its unit."""
+
+
+def noise_range(kind: str) -> str:
+    """The accepted noises of a sensor type, for its line in the parameter reference."""
+    return ", ".join(f"{lo:g}" for lo in NOISE_MIN[kind]) + f" to {NOISE_MAX:g} " + \
+        ", ".join(NOISE_UNITS[kind])
+
+
+def _sigma_kind(lo: float) -> Number:
+    return Number(lo, NOISE_MAX)
+
 
 LEVER_LIMIT: Final = 100.0
 """m: a lever arm longer than this is a typo, not a vessel."""
@@ -151,11 +169,12 @@ class SensorLine(Kind):
         noise: tuple[float, ...] = ()
         if tilde:
             units = NOISE_UNITS[self.type]
-            noise = tuple(_numbers(noise_text, entry, "noise",
-                                   Number(0.0, 1e4, lo_open=True)))
-            if len(noise) > len(units):
+            texts = noise_text.split(",")
+            if len(texts) > len(units):
                 raise entry.error(f"{entry.key}: at most {len(units)} noise value(s) "
-                                  f"({', '.join(units)}), got {len(noise)}")
+                                  f"({', '.join(units)}), got {len(texts)}")
+            noise = tuple(_sigma_kind(lo).parse_text(text, entry, f"{entry.key} noise")
+                          for text, lo in zip(texts, NOISE_MIN[self.type], strict=False))
         return SensorSpec(self.type, source.upper(), name, lever, twist, noise)
 
 
@@ -201,13 +220,16 @@ class FixedValue:
 
 @dataclass(frozen=True)
 class FixedLine(Kind):
-    """``value @ sigma`` within the given range."""
+    """``value @ sigma`` within the given range, sigma at least ``sigma_min`` (the unit's
+    physical floor, as for a sensor's noise)."""
 
     value_kind: Number
     unit: str
+    sigma_min: float
 
     def describe(self) -> str:
-        return f"value @ sigma ({self.unit}), value {self.value_kind.describe()}"
+        return (f"value @ sigma ({self.unit}), value {self.value_kind.describe()}, "
+                f"sigma {_sigma_kind(self.sigma_min).describe()}")
 
     def check_value(self, value: Any) -> bool:
         return value is None or isinstance(value, FixedValue)
@@ -218,9 +240,28 @@ class FixedLine(Kind):
             raise entry.error(f"{entry.key} expects value @ sigma ({self.unit}), "
                               f"got {entry.value!r}")
         value = self.value_kind.parse_text(value_text, entry, entry.key)
-        sigma = Number(0.0, 1e4, lo_open=True).parse_text(sigma_text, entry,
-                                                          f"{entry.key} sigma")
+        sigma = _sigma_kind(self.sigma_min).parse_text(sigma_text, entry, f"{entry.key} sigma")
         return FixedValue(value, sigma)
+
+
+BEACON = Param("BEACON", BeaconLine(), [], repeat=True, attr="beacons",
+               doc="a range or LBL beacon (TAT: its turn-around time)")
+FIXEDDEPTH = Param("FIXEDDEPTH", FixedLine(Number(-1e4, 1e4), "m", 0.001), None,
+                   attr="fixed_depth",
+                   doc="an artificial depth observation every tick (a surface craft: 0 @ 0.1)")
+FIXEDHEADING = Param("FIXEDHEADING", FixedLine(Number(-360.0, 360.0), "deg", 0.01), None,
+                     attr="fixed_heading", doc="an artificial heading observation every tick")
+FIXEDTIDE = Param("FIXEDTIDE", FixedLine(Number(-1e3, 1e3), "m", 0.001), None,
+                  attr="fixed_tide", doc="an artificial tide observation every tick (pins "
+                  "Z = 0 to the surface)")
+FIXEDSIDESLIP = Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s", 0.001), None,
+                      attr="fixed_sideslip", doc="an artificial starboard-speed observation "
+                      "every tick: the hull moves along its bow (0 @ 0.3 for a boat in little "
+                      "current); the EKF then also turns its velocity with the yaw rate")
+LBL_SOUND_SPEED = Param("LBL_SOUND_SPEED", Number(1300.0, 1700.0), 1500.0, "m/s",
+                        "speed of sound for LBL travel times", attr="sound_speed")
+SOUND_SPEED: Final = LBL_SOUND_SPEED.default
+"""m/s: speed of sound in sea water, for LBL travel times."""
 
 
 def fixed_observations(t: float, depth: FixedValue | None, heading: FixedValue | None,
@@ -366,3 +407,4 @@ class SensorReader:
         return Reading(sensor, BodyVelocity(
             t, forward, starboard, values.get("yaw_rate"), sensor.sigma(0), sensor.sigma(1),
             math.radians(sensor.sigma(2)), sensor.lever))
+

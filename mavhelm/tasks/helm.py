@@ -23,7 +23,7 @@ from mavhelm.core.names import (
     desired,
     source_variable,
 )
-from mavhelm.core.params import Number, Param, Schema, Text
+from mavhelm.core.params import Number, Param, PathName, Schema
 from mavhelm.core.thirdparty import REPLY_VARIABLE, REQUEST_VARIABLE
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.end_mission import EndMission
@@ -39,7 +39,7 @@ HELM_SCHEMA = Schema("pHelm", (
     Param("AppTick", Number(1.0, 50.0), 10.0, "Hz",
           "how often the companion ticks (link, nav, helm, output); GUIDED needs >= 1 Hz",
           attr="app_tick"),
-    Param("TaskFile", Text(), None, doc="a .hoof file of Task blocks, relative to the mission",
+    Param("TaskFile", PathName(), None, doc="a .hoof file of Task blocks, relative to the mission",
           attr="task_file"),
     *GAIN_PARAMS,
     Param("Allow", AllowSpec(), [], repeat=True, attr="allow",
