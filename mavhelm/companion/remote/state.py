@@ -20,9 +20,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from mavhelm.companion.bridge import (
     CMD_RESTART_HELM,
     COMPANION_COMPONENT,
-    ROVER_MODE_NUMBERS,
     ROVER_MODES,
 )
+from mavhelm.companion.mode_request import ModeRequest, Step
 from mavhelm.companion.status import CompanionStatus, MissionEnded
 from mavhelm.companion.status_text import line
 from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, decode
@@ -69,15 +69,6 @@ class Pending:
 
     label: str
     sent_at: float
-
-
-@dataclass
-class ModeRequest:
-    """A mode asked for, re-asked every MODE_RETRY_S until the HEARTBEAT shows it."""
-
-    mode: str
-    tries: int
-    next_try: float
 
 
 @dataclass
@@ -162,14 +153,11 @@ class RemoteState:
         ts, tc = to or self.target
         return mavlink.MAVLink_command_long_message(ts, tc, command, 0, *values)
 
-    def _set_mode(self, mode: str) -> Message:
-        self.pending[mavlink.MAV_CMD_DO_SET_MODE] = Pending(f"mode {mode}", self.now)
-        return self._command(mavlink.MAV_CMD_DO_SET_MODE,
-                             mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_MODE_NUMBERS[mode])
-
     def _request_mode(self, mode: str) -> list[Message]:
-        self.mode_request = ModeRequest(mode, 1, self.now + MODE_RETRY_S)
-        return [self._set_mode(mode)]
+        """Sent at once, even before a HEARTBEAT (ALL STOP is never held back); re-sent only
+        while the link is up."""
+        self.mode_request = ModeRequest(mode, tries=MODE_TRIES, retry_s=MODE_RETRY_S)
+        return self._send_mode(self.now)
 
     def _rc(self, steer: int, throttle: int) -> Message:
         chans = [RC_IGNORE] * 8
@@ -273,17 +261,24 @@ class RemoteState:
 
     def _retry_mode(self, now: float) -> list[Message]:
         """The mode asked for, asked again until the HEARTBEAT shows it (MODE_TRIES at most)."""
+        if self.mode_request is None or not self.link_up:
+            return []
+        return self._send_mode(now)
+
+    def _send_mode(self, now: float) -> list[Message]:
         req = self.mode_request
-        if req is None or not self.link_up or now < req.next_try:
-            return []
-        if req.tries >= MODE_TRIES:
+        assert req is not None
+        step = req.step(now)
+        if step is Step.FAILED:
             self.mode_request = None
-            self.status = (f"mode {req.mode} not taken after {MODE_TRIES} requests "
-                           f"(still {self.mode})")
+            if req.refused is None:
+                self.status = (f"mode {req.mode} not taken after {req.sent} requests "
+                               f"(still {self.mode})")
             return []
-        req.tries += 1
-        req.next_try = now + MODE_RETRY_S
-        return [self._set_mode(req.mode)]
+        if step is not Step.SEND:
+            return []
+        self.pending[mavlink.MAV_CMD_DO_SET_MODE] = Pending(f"mode {req.mode}", now)
+        return [req.message(*self.target)]
 
     # -- what arrives -----------------------------------------------------------------------
 
@@ -341,8 +336,7 @@ class RemoteState:
         if self.armed and not armed and self.overriding:
             out += self._release()
         self.mode, self.armed = mode, armed
-        req = self.mode_request
-        if req is not None and req.mode == mode:
+        if self.mode_request is not None and self.mode_request.heartbeat(mode):
             self.mode_request = None
         return out
 
@@ -366,9 +360,10 @@ class RemoteState:
             return
         result = _result_name(msg.result)
         self.status = f"{pending.label}: {result}"
-        if msg.command == mavlink.MAV_CMD_DO_SET_MODE and \
-                msg.result != mavlink.MAV_RESULT_ACCEPTED:
-            self.mode_request = None  # refused: asking again will not help
+        if msg.command == mavlink.MAV_CMD_DO_SET_MODE and self.mode_request is not None:
+            self.mode_request.acknowledged(msg.result)
+            if self.mode_request.refused is not None:
+                self.mode_request = None  # refused: asking again will not help
 
     # -- keys -------------------------------------------------------------------------------
 

@@ -15,8 +15,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.bridge import COMPANION_COMPONENT
+from mavhelm.companion.link import AutopilotLink, transport_for
 from mavhelm.companion.remote.state import (
     GCS_COMPONENT_ID,
     GCS_SYSTEM_ID,
@@ -126,10 +126,9 @@ def _close_gently(link: AutopilotLink, wait_s: float = 0.3) -> None:
     if sock is None:
         link.close()
         return
-    transport = link.transport
     deadline = time.monotonic() + wait_s
     try:
-        while getattr(transport, "_unsent", b"") and time.monotonic() < deadline:
+        while link.unsent() and time.monotonic() < deadline:
             select.select([], [sock], [], 0.05)
             link.write(b"")
         sock.shutdown(socket.SHUT_WR)
