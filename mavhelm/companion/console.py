@@ -165,7 +165,7 @@ class StatusConsole(App):
 
     def __init__(self, bus, echo: Callable[[str], None] | None = print, quiet_s: float = 5.0,
                  statustext: Callable[[str, int], None] | None = None,
-                 tunnel: Callable[[bytes], None] | None = None) -> None:
+                 tunnel: Callable[[bytes], object] | None = None) -> None:
         super().__init__(bus)
         self.echo = echo
         self.statustext = statustext
