@@ -518,3 +518,35 @@ def test_the_rig_sees_real_mavlink_both_ways():
     # and a frame that arrives a byte at a time lands
     rig = Rig(1000.0)
     assert rig.tick(1000.0, [bytes([b]) for b in rig.frame(GOOD_HEARTBEAT)]).online
+
+
+def test_named_value_rate_sets_how_often_the_helms_view_goes_to_the_ground_station():
+    """``NamedValueRate`` (Hz): 5 gives five NAMED_VALUE_FLOAT sets a second, 0 none, and the
+    mission refuses a rate out of its declared range with the line."""
+    from mavhelm.core.mission import MissionError, parse_mission
+
+    def config(text: str) -> BridgeConfig:
+        mission = parse_mission(f"ProcessConfig = iMAVLink\n{{\n{text}\n}}\n", "m.moos")
+        return BridgeConfig.from_block(mission.process("iMAVLink"))
+
+    def sets_per_second(rate_line: str) -> int:
+        rig = Rig(1000.0, config(rate_line))
+        sent = 0
+        for i in range(20):  # two seconds at 10 Hz
+            now = 1000.0 + 0.1 * i
+            mail = [Message("DESIRED_RUDDER", 1.0, now, "pHelm")]
+            result = rig.tick(now, [rig.frame(GOOD_HEARTBEAT)], mail)
+            sent += sum(m.get_type() == "NAMED_VALUE_FLOAT" and m.name == "DES_RUDDER"
+                        for m in result.written_by_send)
+        return sent // 2
+
+    assert sets_per_second("") == 1
+    assert sets_per_second("NamedValueRate = 5") == 5
+    assert sets_per_second("NamedValueRate = 0") == 0
+    for bad in ("11", "-1", "nan"):
+        try:
+            config(f"NamedValueRate = {bad}")
+        except MissionError as exc:
+            assert str(exc).startswith("m.moos:3:") and "NamedValueRate" in str(exc)
+        else:
+            raise AssertionError(f"NamedValueRate = {bad} accepted")

@@ -104,8 +104,8 @@ from typing import Any
 
 import pynmea2
 
-from mavhelm.companion.link import RETRY_FIRST_S, RETRY_MAX_S, SerialTransport, Transport
 from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M
+from mavhelm.companion.link import RETRY_FIRST_S, RETRY_MAX_S, SerialTransport, Transport
 from mavhelm.core.app import App
 from mavhelm.core.backoff import Backoff
 from mavhelm.core.bus import Bus

@@ -123,6 +123,9 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
           "turn rate commanded at full rudder (MAXRUDDER)", attr="max_turn_rate"),
     Param("LinkTimeOut", Number(1.0, 60.0), 3.0, "s",
           "no autopilot HEARTBEAT for this long takes the helm offline", attr="link_timeout"),
+    Param("NamedValueRate", Number(0.0, 10.0), 1.0, "Hz",
+          "how often the helm's view (NAV_X ... DES_THRUST) goes to the ground station as "
+          "NAMED_VALUE_FLOAT; 0 sends none (a thin radio link)", attr="named_value_rate"),
     Param("Stream", StreamRate(), [], repeat=True, attr="stream_rates",
           doc="a telemetry rate to ask for, on top of the defaults "
               "(" + ", ".join(f"{k}@{v:g}" for k, v in DEFAULT_STREAMS.items()) + ")"),
@@ -156,6 +159,7 @@ class BridgeConfig:
     servos: list[Servo]
     max_turn_rate: float
     link_timeout: float
+    named_value_rate: float
     stream_rates: list[tuple[str, float]]
     max_rudder: float
     streams: dict[str, float]

@@ -1,10 +1,10 @@
 """MAVLink out: the helm's demands, what the ground station sees, and replies.
 
-Every tick: the companion's HEARTBEAT and, once a second, NAMED_VALUE_FLOAT; while online the
-``DESIRED_*`` demands through the actuation profile and the servo outputs. Nothing non-finite
-or out of range is ever sent: 0 goes instead and ``MAVLINK_OUTPUT_REFUSED`` says why. Also the
-end-of-mission hand-back (a ``ModeRequest``), STATUSTEXT lines, third-party replies and TUNNEL
-payloads.
+The companion's HEARTBEAT once a second, NAMED_VALUE_FLOAT at ``NamedValueRate``; every tick
+while online the ``DESIRED_*`` demands through the actuation profile and the servo outputs.
+Nothing non-finite or out of range is ever sent: 0 goes instead and ``MAVLINK_OUTPUT_REFUSED``
+says why. Also the end-of-mission hand-back (a ``ModeRequest``), STATUSTEXT lines, third-party
+replies and TUNNEL payloads.
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ TUNNEL_MAX = 128
 
 HANDBACK_TRIES = 3
 HANDBACK_RETRY_S = 1.0
+TIME_EPSILON_S = 1e-6
+"""Times this close count as equal (ticks on a 0.1 s grid do not add up exactly)."""
 
 
 class OutputPath:
@@ -50,6 +52,7 @@ class OutputPath:
         self.handback: ModeRequest | None = None
         self.refused_outputs = 0
         self.named_values: dict[str, float] = {}
+        self.next_named_values = -math.inf
         self.statustext_id = 0
         self.next_heartbeat = 0.0
 
@@ -63,6 +66,12 @@ class OutputPath:
             bridge.link.mav.heartbeat_send(
                 mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                 mavlink.MAV_STATE_ACTIVE)
+        rate = bridge.config.named_value_rate
+        if rate > 0.0 and now >= self.next_named_values - TIME_EPSILON_S:
+            period = 1.0 / rate
+            self.next_named_values += period  # on a grid: a tick's jitter does not slow it
+            if self.next_named_values <= now:
+                self.next_named_values = now + period
             self.send_named_values(now)
         for m in mail:
             if m.name == "HELM_HANDBACK":
@@ -105,8 +114,8 @@ class OutputPath:
         return 0.0
 
     def send_named_values(self, now: float) -> None:
-        """Once a second, the helm's view as NAMED_VALUE_FLOAT (what ground stations list and
-        graph, and what ``mavhelm remote`` shows): pose from pNav, desired actuators."""
+        """The helm's view as NAMED_VALUE_FLOAT (what ground stations list and graph, and what
+        ``mavhelm remote`` shows): pose from pNav, desired actuators."""
         mav = self.bridge.link.mav
         stamp = self.bridge.boot_ms(now)
         for name, value in self.named_values.items():
