@@ -150,7 +150,8 @@ class Estimate:
 # with an empty --defaults file, for the names of default_params() whose value there differs:
 # the table below is mavhelm's hulls' (rover.parm's navigation values, controller terms tuned to
 # those hulls). AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_FF/P/I 0.2, IMAX 1.0;
-# AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; Rover/Parameters.cpp: CRUISE_SPEED 2,
+# AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; AP_MotorsUGV.cpp: MOT_SPD_SCA_BASE 1;
+# Rover/Parameters.cpp: CRUISE_SPEED 2,
 # CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. Not here, because the model decides
 # them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set
 # them). tests/test_sitl_vehicle_models.py reads every name back from the real binary.
@@ -158,6 +159,7 @@ ARDUPILOT_DEFAULTS: dict[str, float] = {
     "ATC_STR_RAT_FF": 0.2, "ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
     "ATC_SPEED_P": 0.2, "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0,
     "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 50.0, "WP_SPEED": 2.0, "WP_RADIUS": 2.0,
+    "MOT_SPD_SCA_BASE": 1.0,
 }
 
 
@@ -191,6 +193,8 @@ def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, 
         "ATC_SPEED_IMAX": 0.5,
         "ATC_ACCEL_MAX": 1.0, "ATC_DECEL_MAX": 0.0, "ATC_STOP_SPEED": 0.1,
         "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5, "MOT_SLEWRATE": 100.0,
+        # mavhelm's hulls were tuned without steering speed scaling (motors.steering_output)
+        "MOT_SPD_SCA_BASE": 0.0,
         "GPS1_TYPE": 1, "GPS1_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
     }
     if boat and not skid:  # a rudder needs flow: more gain on the rate error
@@ -570,4 +574,7 @@ class Autopilot:
         out = m.output(self.steering, self.throttle, self.armed, dt)
         if self.armed:
             self.throttle = out
+        self.steering = m.steering_output(self.steering, self.est.forward_speed, self.armed,
+                                          self.current.scales_steering)
         self.atc.motor_limit = m.limit_lower or m.limit_upper
+        self.atc.steer_limit = m.limit_steer

@@ -27,6 +27,9 @@ class Mode:
 
     number: ClassVar[int]
     name: ClassVar[str]
+    # the steering goes out scaled by speed (AP_MotorsUGV::set_steering's apply_scaling): every
+    # mode but MANUAL (without MANUAL_OPTIONS' speed-scaling bit, which is not modelled)
+    scales_steering: ClassVar[bool] = True
 
     def __init__(self, autopilot: Autopilot) -> None:
         self.ap = autopilot
