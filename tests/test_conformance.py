@@ -1,11 +1,12 @@
-"""`mavhelm sim` against the real ArduPilot Rover SITL: the same scenarios, both sides, every answer.
+"""`mavhelm sim` against the real ArduPilot Rover SITL: the same scenarios on both sides.
 
 Each scenario (tests/conformance.py) runs once per side per module: the real binary at
 ``--speedup 10`` (about 8 s of wall time; skipped without MAVHELM_ARDUPILOT) and the simulator
 in lockstep (about 2 s). The main one drives the motorboat through the protocol; the turn-rate
-one holds the ``rover`` (stock rover.parm) on a SET_ATTITUDE_TARGET turn for 8 s. Any difference beyond tolerance that docs/sim-differences.md does not
-list fails. The sim-only tests pin the measured facts so they hold without the binary too.
-Run with -s to see the observations and timings.
+one holds the ``rover`` (stock rover.parm) on a SET_ATTITUDE_TARGET turn for 8 s. Any
+difference beyond tolerance that docs/sim-differences.md does not list fails. The sim-only
+tests pin the measured facts so they hold without the binary too. Run with -s to see the
+observations and timings.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ def sim_obs() -> dict[str, Any]:
     from sitl_rig import Rig
 
     t0 = time.monotonic()
-    rig = Rig(variant="rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
+    rig = Rig(model="mavhelm-boat-rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
               start_heading=HOME[3], wait_for_client=True)
     try:
         obs = run_scenario(SimSide(rig))
