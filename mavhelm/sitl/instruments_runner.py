@@ -32,6 +32,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.core.backoff import Backoff
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.runner import describe_port, make_sensor_ports, parse_beacons
 from mavhelm.sitl.truth import Truth
@@ -47,8 +48,6 @@ SOURCE_SYSTEM = 255
 SOURCE_COMPONENT = mavlink.MAV_COMP_ID_PERIPHERAL
 """Who the requests come from. The runner sends no heartbeat, so it never shows up as a
 vehicle or a ground station to the others on the SITL's links."""
-RETRY_FIRST_S = 0.5
-RETRY_MAX_S = 4.0
 REQUEST_AGAIN_S = 2.0
 """Wall seconds without truth after asking before asking again (a request made while the
 autopilot is still starting can be ignored)."""
@@ -156,8 +155,7 @@ class InstrumentsRunner:
         self.say = say
         self.wall = wall
         self.connected = False
-        self._retry_at = 0.0
-        self._retry_s = RETRY_FIRST_S
+        self._backoff = Backoff()  # the project's reconnect timing (1 s doubling to 8 s)
         self._waiting_said = False
         self._asked_at: float | None = None
         self._asks = 0
@@ -179,15 +177,14 @@ class InstrumentsRunner:
                 hint = (" (a real SITL opens 5762/5763 only once a client is on 5760)"
                         if exc.errno == errno.ECONNREFUSED else "")
                 self.say(f"{PREFIX} waiting for {self.link.where}: "
-                         f"{exc.strerror or exc}{hint}; retrying")
+                         f"{exc.strerror or exc}{hint}; {self._backoff.describe()}")
                 self._waiting_said = True
-            self._retry_at = now + self._retry_s
-            self._retry_s = min(RETRY_MAX_S, self._retry_s * 2)
+            self._backoff.failed(now)
             return
         self.connected = True
         self.connections += 1
         self._waiting_said = False
-        self._retry_s = RETRY_FIRST_S
+        self._backoff.succeeded()
         self._asked_at = None
         self._asks = 0
         self._heard_at = now
@@ -199,7 +196,7 @@ class InstrumentsRunner:
     def _lost(self, now: float, why: str) -> None:
         self.link.close()
         self.connected = False
-        self._retry_at = now + RETRY_FIRST_S
+        self._backoff.failed(now)
         self.say(f"{PREFIX} lost {self.link.where}: {why}; retrying")
 
     def _ask(self, now: float) -> None:
@@ -214,10 +211,10 @@ class InstrumentsRunner:
     def step(self, timeout_s: float = 0.05) -> list[Truth]:
         now = self.wall()
         if not self.connected:
-            if now >= self._retry_at:
+            if self._backoff.due(now):
                 self._connect(now)
             if not self.connected:
-                time.sleep(min(timeout_s, max(0.0, self._retry_at - now)))
+                time.sleep(min(timeout_s, self._backoff.wait_s(now)))
                 return []
         try:
             msgs, closed = self.link.read(timeout_s)
