@@ -308,20 +308,36 @@ class Autopilot:
             return  # the sequence is over: nothing below can fire again
         up = self.uptime(now)
         if not self._initialised and up >= self.timeline.initialised:
-            self._initialised = True
-            initial = int(self.params.get("INITIAL_MODE", 0))
-            chosen = initial if initial in MODES and initial != INITIALISING else MANUAL
-            # INITIAL_MODE is not checked: the mode is prepared and entered as it is
-            self.modes[chosen]._start()
-            self._switch(self.modes[chosen])
-        if self.home is None and up >= self.timeline.gps_fix and self.gps_has_fix:
+            self._initialise()
+        self._gps_events(up)
+        self._say_boot_texts(up)
+        self._boot_done = (self._initialised and "gps" in self._announced
+                           and self._boot_text >= len(BOOT_TEXTS))
+
+    def _initialise(self) -> None:
+        """Initialisation done: enter INITIAL_MODE (MANUAL if it names no mode)."""
+        self._initialised = True
+        initial = int(self.params.get("INITIAL_MODE", 0))
+        chosen = initial if initial in MODES and initial != INITIALISING else MANUAL
+        # INITIAL_MODE is not checked: the mode is prepared and entered as it is
+        self.modes[chosen]._start()
+        self._switch(self.modes[chosen])
+
+    def _gps_events(self, up: float) -> None:
+        """Home at the first fix, then the EKF origin, then the EKF using GPS, each at its
+        time on the timeline."""
+        fix = self.gps_has_fix
+        if self.home is None and up >= self.timeline.gps_fix and fix:
             self.home = (self.est.x, self.est.y)  # AP_GPS's first fix sets home
             self._announced.add("home")
-        if self.ekf_origin is None and up >= self.timeline.ekf_origin and self.gps_has_fix:
+        if self.ekf_origin is None and up >= self.timeline.ekf_origin and fix:
             self.ekf_origin = (self.est.x, self.est.y)
             self._announced.add("origin")
-        if "gps" not in self._announced and up >= self.timeline.ekf_gps and self.gps_has_fix:
+        if "gps" not in self._announced and up >= self.timeline.ekf_gps and fix:
             self._announced.add("gps")
+
+    def _say_boot_texts(self, up: float) -> None:
+        """The boot texts in order: each at its time, or once its event has happened."""
         while self._boot_text < len(BOOT_TEXTS):
             b = BOOT_TEXTS[self._boot_text]
             if b.event is not None:
@@ -335,8 +351,6 @@ class Autopilot:
                 text = text.format(lat=lat, lon=lon)
             self.text(b.severity, text)
             self._boot_text += 1
-        self._boot_done = (self._initialised and "gps" in self._announced
-                           and self._boot_text >= len(BOOT_TEXTS))
 
     # ------------------------------------------------------------------ modes
     def base_mode(self) -> int:
@@ -450,40 +464,49 @@ class Autopilot:
         """
         if self.mode != GUIDED:
             return
-        pos_ignore = (type_mask & POS_IGNORE) == POS_IGNORE
-        vel_ignore = (type_mask & VEL_IGNORE) == VEL_IGNORE
-        acc_ignore = (type_mask & ACC_IGNORE) == ACC_IGNORE
-        yaw_ignore = bool(type_mask & YAW_IGNORE)
-        rate_ignore = bool(type_mask & YAW_RATE_IGNORE)
-        if not acc_ignore:
+        if (type_mask & ACC_IGNORE) != ACC_IGNORE:
             # GCS_MAVLINK_Rover::send_acc_ignore_must_be_set_message
             self.text(SEVERITY_INFO, f"Ignoring {message}; set ACC_IGNORE in mask")
             return
-        speed = 0.0
-        heading = 0.0
-        if not vel_ignore:
-            limit = self.params["WP_SPEED"]
-            speed = clamp(math.hypot(vx, vy), -limit, limit)
-            heading = math.degrees(math.atan2(vy, vx))
-            if frame == "body":
-                heading += self.est.heading
+        pos_ignore = (type_mask & POS_IGNORE) == POS_IGNORE
+        vel_ignore = (type_mask & VEL_IGNORE) == VEL_IGNORE
+        yaw_ignore = bool(type_mask & YAW_IGNORE)
+        rate_ignore = bool(type_mask & YAW_RATE_IGNORE)
+        if not pos_ignore and x is not None and y is not None:
+            self.guided.set_desired_location(x, y)
+            return
+        speed, heading = (0.0, 0.0) if vel_ignore else self._velocity_target(vx, vy, frame)
         if not yaw_ignore:
             heading = math.degrees(yaw) + (self.est.heading if frame == "body" else 0.0)
         rate = 0.0 if rate_ignore else math.degrees(yaw_rate)
-        direction = -1.0 if (not vel_ignore and (not yaw_ignore or not rate_ignore)
-                             and vx < 0) else 1.0
+        if not vel_ignore and (not yaw_ignore or not rate_ignore) and vx < 0:
+            speed = -speed
+        self._guided_velocity_target(vel_ignore, yaw_ignore, rate_ignore, heading, rate, speed,
+                                     now)
+
+    def _velocity_target(self, vx: float, vy: float, frame: str) -> tuple[float, float]:
+        """(speed, heading in degrees) of a velocity target: the speed within WP_SPEED."""
+        limit = self.params["WP_SPEED"]
+        speed = clamp(math.hypot(vx, vy), -limit, limit)
+        heading = math.degrees(math.atan2(vy, vx))
+        if frame == "body":
+            heading += self.est.heading
+        return speed, heading
+
+    def _guided_velocity_target(self, vel_ignore: bool, yaw_ignore: bool, rate_ignore: bool,
+                                heading: float, rate: float, speed: float, now: float) -> None:
+        """GCS_MAVLINK_Rover's choice of GUIDED sub-mode by what the mask leaves: a velocity
+        with a heading (from the velocity itself or given) or with a turn rate, or a heading
+        or turn rate alone at zero speed."""
         g = self.guided
-        if not pos_ignore and x is not None and y is not None:
-            g.set_desired_location(x, y)
-        elif not vel_ignore and yaw_ignore and rate_ignore:
-            g.set_desired_heading_and_speed(heading, direction * speed, now)
-        elif not vel_ignore and yaw_ignore and not rate_ignore:
-            g.set_desired_turn_rate_and_speed(rate, direction * speed, now)
-        elif not vel_ignore and not yaw_ignore and rate_ignore:
-            g.set_desired_heading_and_speed(heading, direction * speed, now)
-        elif vel_ignore and not yaw_ignore and rate_ignore:
+        if not vel_ignore:
+            if yaw_ignore and not rate_ignore:
+                g.set_desired_turn_rate_and_speed(rate, speed, now)
+            elif yaw_ignore or rate_ignore:  # not both a heading and a turn rate
+                g.set_desired_heading_and_speed(heading, speed, now)
+        elif not yaw_ignore and rate_ignore:
             g.set_desired_heading_and_speed(heading, 0.0, now)
-        elif vel_ignore and yaw_ignore and not rate_ignore:
+        elif yaw_ignore and not rate_ignore:
             g.set_desired_turn_rate_and_speed(rate, 0.0, now)
 
     def guided_reposition(self, x: float, y: float, speed: float, change_mode: bool,

@@ -208,71 +208,109 @@ def make_sensor_ports(vehicle: str, origin: Origin, scenario: Any, beacons: list
     return ports
 
 
+class _Refused(Exception):
+    """A start-up problem: its message goes to stderr and ``status`` is the exit status."""
+
+    def __init__(self, message: str, status: int = 2) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _scenario(args: argparse.Namespace) -> tuple[Any, int | None]:
+    """(the fault scenario or None, the seed: --seed, else the scenario's)."""
+    if not args.scenario:
+        return None, args.seed
+    from mavhelm.sitl.faults import Scenario, ScenarioError
+
+    try:
+        scenario = Scenario.from_file(args.scenario)
+    except ScenarioError as exc:
+        raise _Refused(str(exc)) from None
+    return scenario, scenario.seed if args.seed is None else args.seed
+
+
+def _defaults(args: argparse.Namespace) -> Any:
+    """The --defaults files, read leniently (their skipped lines said on stderr), or None."""
+    if not getattr(args, "defaults", None):
+        return None
+    from mavhelm.sitl.parm_file import ParmFileError, read_defaults
+
+    try:
+        defaults = read_defaults(args.defaults, strict=False)
+    except ParmFileError as exc:
+        raise _Refused(f"--defaults: {exc}") from None
+    for skipped in defaults.skipped:
+        print(f"mavhelm sim: {skipped} (skipped, as ArduPilot does)", file=sys.stderr)
+    return defaults
+
+
+def _start(args: argparse.Namespace) -> tuple[float, float, float]:
+    """(lat, lon, heading): --home, else the --mission's origin, else DEFAULT_HOME."""
+    if args.home is not None:
+        return args.home
+    if not getattr(args, "mission", None):
+        return DEFAULT_HOME
+    from mavhelm.core.errors import LocatedError
+    from mavhelm.core.geodesy import mission_origin
+    from mavhelm.core.mission import load_mission
+
+    try:
+        origin = mission_origin(load_mission(args.mission))
+    except LocatedError as exc:
+        raise _Refused(str(exc)) from None
+    return origin.lat, origin.lon, 0.0
+
+
+def _sensor_ports(args: argparse.Namespace, vehicle: str, home: Origin, scenario: Any,
+                  seed: int | None, epoch: float) -> list[Any]:
+    """The serial instruments' ptys with --sensors (none without)."""
+    beacons = getattr(args, "beacons", None)
+    if not getattr(args, "sensors", False):
+        if beacons:
+            raise _Refused("--beacons needs --sensors")
+        return []
+    from mavhelm.sitl.faults import Scenario
+
+    # the serial noise comes from the scenario's streams; --seed seeds them without one
+    sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
+    try:
+        return make_sensor_ports(vehicle, home, sensor_scenario, beacons,
+                                 getattr(args, "ranging", "acoustic"), epoch)
+    except OSError as exc:
+        raise _Refused(f"cannot open a pseudo-terminal: {exc}", 1) from None
+
+
+def _listen_refused(args: argparse.Namespace, exc: OSError) -> _Refused:
+    """Why the simulator could not listen, with free ports to try when they are taken."""
+    busy = [p for p in args.port if p and not _port_free(args.host, p)]
+    if not busy:
+        return _Refused(f"cannot listen: {exc}", 1)
+    spare = ",".join(str(p + 10) for p in args.port)
+    return _Refused(f"TCP port {busy[0]} on {args.host} is already in use (another SITL or "
+                    f"mavhelm sim?): choose free ones with --port, e.g. --port {spare}", 1)
+
+
 def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C. Returns the process exit status."""
+    try:
+        return _run(args)
+    except _Refused as exc:
+        print(f"mavhelm sim: {exc}", file=sys.stderr)
+        return exc.status
+
+
+def _run(args: argparse.Namespace) -> int:
     from mavhelm.sitl.simulator import Simulator
 
     model = get_model(args.model)
-    scenario = None
-    seed = args.seed
-    if args.scenario:
-        from mavhelm.sitl.faults import Scenario, ScenarioError
-
-        try:
-            scenario = Scenario.from_file(args.scenario)
-        except ScenarioError as exc:
-            print(f"mavhelm sim: {exc}", file=sys.stderr)
-            return 2
-        if seed is None:
-            seed = scenario.seed
+    scenario, seed = _scenario(args)
     params = dict(getattr(args, "param", []) or [])
-    defaults = None
-    if getattr(args, "defaults", None):
-        from mavhelm.sitl.parm_file import ParmFileError, read_defaults
-
-        try:
-            defaults = read_defaults(args.defaults, strict=False)
-        except ParmFileError as exc:
-            print(f"mavhelm sim: --defaults: {exc}", file=sys.stderr)
-            return 2
-        for skipped in defaults.skipped:
-            print(f"mavhelm sim: {skipped} (skipped, as ArduPilot does)", file=sys.stderr)
-    vehicle = model.vehicle
-    sensors = getattr(args, "sensors", False)
-    beacons = getattr(args, "beacons", None)
-    if beacons and not sensors:
-        print("mavhelm sim: --beacons needs --sensors", file=sys.stderr)
-        return 2
-    if args.home is not None:
-        lat, lon, heading = args.home
-    elif getattr(args, "mission", None):
-        from mavhelm.core.errors import LocatedError
-        from mavhelm.core.geodesy import mission_origin
-        from mavhelm.core.mission import load_mission
-
-        try:
-            origin = mission_origin(load_mission(args.mission))
-        except LocatedError as exc:
-            print(f"mavhelm sim: {exc}", file=sys.stderr)
-            return 2
-        lat, lon, heading = origin.lat, origin.lon, 0.0
-    else:
-        lat, lon, heading = DEFAULT_HOME
+    defaults = _defaults(args)
+    lat, lon, heading = _start(args)
     home = Origin(lat, lon)
     epoch = time.time()
     clock = PacedClock(args.speedup)
-    ports: list[Any] = []
-    if sensors:
-        from mavhelm.sitl.faults import Scenario
-
-        # the serial noise comes from the scenario's streams; --seed seeds them without one
-        sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
-        try:
-            ports = make_sensor_ports(vehicle, home, sensor_scenario, beacons,
-                                      getattr(args, "ranging", "acoustic"), epoch)
-        except OSError as exc:
-            print(f"mavhelm sim: cannot open a pseudo-terminal: {exc}", file=sys.stderr)
-            return 1
+    ports = _sensor_ports(args, model.vehicle, home, scenario, seed, epoch)
     try:
         try:
             sim = Simulator(clock, model=model, ports=args.port, host=args.host,
@@ -282,31 +320,28 @@ def run(args: argparse.Namespace) -> int:
                             serial_sensors=ports,
                             defaults=defaults)
         except OSError as exc:
-            busy = [p for p in args.port if p and not _port_free(args.host, p)]
-            if busy:
-                spare = ",".join(str(p + 10) for p in args.port)
-                print(f"mavhelm sim: TCP port {busy[0]} on {args.host} is already in use "
-                      f"(another SITL or mavhelm sim?): choose free ones with --port, e.g. "
-                      f"--port {spare}", file=sys.stderr)
-            else:
-                print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
-            return 1
+            raise _listen_refused(args, exc) from None
         where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
         outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
         print(f"mavhelm sim: {model.name} at {lat:.6f},{lon:.6f} "
               f"listening on {where}" + (f", sending to {outs}" if outs else ""), flush=True)
         for port in ports:
             print(f"mavhelm sim: {describe_port(port)}", flush=True)
-        try:
-            while True:
-                sim.step(clock.now())
-                socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
-                select.select(socks, [], [], TICK)
-        except KeyboardInterrupt:
-            print("mavhelm sim: stopped", flush=True)
-            return 0
-        finally:
-            sim.close()
+        return _serve(sim, clock)
     finally:
         for port in ports:
             port.close()
+
+
+def _serve(sim: Any, clock: PacedClock) -> int:
+    """Step the simulator on the paced clock until Ctrl-C."""
+    try:
+        while True:
+            sim.step(clock.now())
+            socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
+            select.select(socks, [], [], TICK)
+    except KeyboardInterrupt:
+        print("mavhelm sim: stopped", flush=True)
+        return 0
+    finally:
+        sim.close()
