@@ -47,9 +47,9 @@ def summarize(messages: Sequence[Message], track: Sequence[Truth],
             open_tasks[m.string] = record
         elif m.name == "TASK_ENDED":
             name, _, cause = m.string.rpartition(":")
-            record = open_tasks.pop(name, None)
-            if record is not None:
-                record.ended, record.cause = m.time, cause
+            ended = open_tasks.pop(name, None)
+            if ended is not None:
+                ended.ended, ended.cause = m.time, cause
         elif m.name == "HELM_STATE" and m.string == "ONLINE" and summary.online_at is None:
             summary.online_at = m.time
         elif m.name == "MISSION_ENDED" and summary.ended_at is None:

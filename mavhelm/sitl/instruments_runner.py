@@ -274,9 +274,9 @@ class InstrumentsRunner:
         self._last_t = truth.t
         if not self._announced:
             self._announced = True
-            o = self.feed.origin
-            assert o is not None and self.feed.offset is not None
-            self.say(f"{PREFIX} truth from autopilot {self.feed.autopilot[0]} at "
+            o, autopilot = self.feed.origin, self.feed.autopilot
+            assert o is not None and self.feed.offset is not None and autopilot is not None
+            self.say(f"{PREFIX} truth from autopilot {autopilot[0]} at "
                      f"{self.rate_hz:g} Hz; time stamps = autopilot boot s + "
                      f"{self.feed.offset:.3f}; origin {o.lat:.7f},{o.lon:.7f}")
         if self.feed.samples >= 5 and self.feed.velocity_source != self._velocity_said:

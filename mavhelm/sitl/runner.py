@@ -187,7 +187,7 @@ def make_sensor_ports(vehicle: str, origin: Origin, scenario: Any, beacons: list
     ports = default_ports(origin, scenario, beacons or (), ranging=ranging, pty=True)
     try:
         if vehicle == "rover":
-            keep = []
+            keep: list[Any] = []
             for port in ports:
                 if port.name in ("depth", "dvl"):
                     port.close()
