@@ -167,7 +167,7 @@ def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, 
     """The parameter table: the names and values the real Rover 4.8-dev SITL answers with its
     stock rover.parm (WP_SPEED 5, CRUISE_SPEED 5, WP_RADIUS 3, ATC_STR_RAT_FF 0.75, ATC_SPEED_P
     0.1), except a few controller terms tuned to the simulator's hulls (docs/sim-differences.md).
-    Names are 4.8's: MAV_SYSID (was SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
+    Names are 4.8's: MAV_SYSID (older firmware: SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
     GUID_TIMEOUT.
 
     ``firmware``: the same names with ArduPilot's own defaults (ARDUPILOT_DEFAULTS), for the
