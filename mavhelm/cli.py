@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import signal
 import sys
 from pathlib import Path
@@ -91,13 +90,13 @@ def _request(args: argparse.Namespace) -> int:
     from mavhelm.companion.link import AutopilotLink
     from mavhelm.core.thirdparty import RequestError, ThirdPartyRequest
 
+    if not args.close and not args.task:
+        args.usage_error("give a task type (and Key=Value properties) or --close")
     try:
         request = ThirdPartyRequest(args.job, args.client)
         if args.close:
             text = request.close()
         else:
-            if not args.task:
-                raise RequestError("give a task type (and Key=Value properties) or --close")
             for key, value in args.properties:
                 request.add_property(key, value)
             text = request.execute_task(args.task)
@@ -129,17 +128,6 @@ def _link_address(text: str) -> str:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
     return text
-
-
-def _seconds(text: str) -> float:
-    """A positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, not {text!r}")
-    return value
 
 
 def _system_component(text: str) -> tuple[int, int]:
@@ -219,7 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the mission to check against (origin, actuation, servos)")
     check.add_argument("--connect", type=_link_address,
                        help="autopilot link (default: the mission's Connect)")
-    check.add_argument("--listen", type=_seconds, default=8.0,
+    check.add_argument("--listen", type=runner.positive_number, default=8.0,
                        help="seconds to listen for streams and parameters (default 8)")
     check.set_defaults(func=_check)
 
@@ -237,9 +225,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="the companion (default 1:191)")
     request.add_argument("--source", default="1:25", type=_system_component,
                          help="this guest's system:component (default 1:25)")
-    request.add_argument("--wait", type=_seconds, default=5.0,
+    request.add_argument("--wait", type=runner.positive_number, default=5.0,
                          help="seconds to wait for the answer")
-    request.set_defaults(func=_request)
+    request.set_defaults(func=_request, usage_error=request.error)
 
     from mavhelm.companion import remote as remote_console
 

@@ -34,7 +34,13 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.backoff import Backoff
 from mavhelm.sitl.flat_earth import Origin
-from mavhelm.sitl.runner import describe_port, make_sensor_ports, parse_beacons
+from mavhelm.sitl.models import MODEL_NAMES, get_model
+from mavhelm.sitl.runner import (
+    describe_port,
+    make_sensor_ports,
+    parse_beacons,
+    positive_number,
+)
 from mavhelm.sitl.truth import Truth
 from mavhelm.sitl.truth_feed import (
     DEFAULT_RATE_HZ,
@@ -321,11 +327,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "turn-around s), as for mavhelm sim")
     parser.add_argument("--ranging", choices=("acoustic", "radio"), default="acoustic",
                         help="with --beacons: acoustic LBL (default) or radio ranges")
-    parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat",
-                        help="boat: echo sounder + DVL; rover: wheel odometry, no sounder")
-    parser.add_argument("--water-depth", type=float, default=20.0,
+    parser.add_argument("--model", choices=MODEL_NAMES, default="motorboat", metavar="NAME",
+                        help="the vehicle model, as the SITL's --model (default motorboat): a "
+                             "boat gets echo sounder + DVL, a rover wheel odometry, no sounder")
+    parser.add_argument("--water-depth", type=positive_number, default=20.0,
                         help="the seabed's depth below the surface, m (default 20)")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ,
+    parser.add_argument("--rate", type=positive_number, default=DEFAULT_RATE_HZ,
                         help="truth samples per autopilot second (default 10)")
     parser.add_argument("--scenario", default=None,
                         help="fault scenario file (.scn); its windows are autopilot seconds")
@@ -337,9 +344,7 @@ def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C. Returns the process exit status."""
     from mavhelm.sitl.faults import Scenario, ScenarioError
 
-    if args.rate <= 0:
-        print(f"{PREFIX} --rate must be positive", file=sys.stderr)
-        return 2
+    vehicle = get_model(args.model).vehicle
     try:
         scenario = Scenario.from_file(args.scenario) if args.scenario else Scenario()
     except ScenarioError as exc:
@@ -364,7 +369,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         # Built before the origin is known (the first SIMSTATE may give it): the GPS's origin
         # is set with every sample, so a placeholder here is never used.
-        ports = make_sensor_ports(args.vehicle, origin or Origin(0.0, 0.0), scenario,
+        ports = make_sensor_ports(vehicle, origin or Origin(0.0, 0.0), scenario,
                                   args.beacons, args.ranging, epoch=None)
     except OSError as exc:
         print(f"{PREFIX} cannot open a pseudo-terminal: {exc}", file=sys.stderr)
@@ -373,7 +378,7 @@ def run(args: argparse.Namespace) -> int:
     runner = InstrumentsRunner(TruthLink(host, port), ports, feed, rate_hz=args.rate,
                                say=lambda text: print(text, flush=True))
     try:
-        print(f"{PREFIX} {args.vehicle} instruments, truth from tcp:{host}:{port}"
+        print(f"{PREFIX} {vehicle} instruments, truth from tcp:{host}:{port}"
               + (f", origin {origin.lat:.7f},{origin.lon:.7f}" if origin else ""), flush=True)
         for p in ports:
             print(f"{PREFIX} {describe_port(p)}", flush=True)

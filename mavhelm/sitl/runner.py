@@ -64,13 +64,14 @@ def _out(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"bad port in {text!r}") from exc
 
 
-def _speedup(text: str) -> float:
+def positive_number(text: str) -> float:
+    """An argparse ``type=``: a positive, finite number."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
     if not 0.0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"--speedup must be a positive number, not {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a positive number, not {text!r}")
     return value
 
 
@@ -141,7 +142,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mission", default=None,
                         help="start at this mission's LatOrigin/LongOrigin (a mission's "
                              "waypoints are metres from its origin)")
-    parser.add_argument("--speedup", type=_speedup, default=1.0,
+    parser.add_argument("--speedup", type=positive_number, default=1.0,
                         help="run N times faster than real time (default 1)")
     parser.add_argument("--fast-start", action="store_true",
                         help="compress the start-up timeline to ~3 s")
