@@ -151,10 +151,10 @@ class Estimate:
 # the table below is mavhelm's hulls' (rover.parm's navigation values, controller terms tuned to
 # those hulls). AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_FF/P/I 0.2, IMAX 1.0;
 # AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; AP_MotorsUGV.cpp: MOT_SPD_SCA_BASE 1;
-# Rover/Parameters.cpp: CRUISE_SPEED 2,
-# CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. Not here, because the model decides
-# them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set
-# them). tests/test_sitl_vehicle_models.py reads every name back from the real binary.
+# Rover/Parameters.cpp: CRUISE_SPEED 2, CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2.
+# Not here, because the model decides them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and
+# its outputs; the stock files set them). tests/test_sitl_vehicle_models.py reads every name back
+# from the real binary.
 ARDUPILOT_DEFAULTS: dict[str, float] = {
     "ATC_STR_RAT_FF": 0.2, "ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
     "ATC_SPEED_P": 0.2, "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0,
