@@ -103,30 +103,23 @@ def _check(args: argparse.Namespace) -> int:
 
 def _request(args: argparse.Namespace) -> int:
     from mavhelm.companion.guest import GUEST_COMPONENT, send_request
-    from mavhelm.companion.link import AutopilotLink, transport_for
+    from mavhelm.companion.link import AutopilotLink
     from mavhelm.core.thirdparty import RequestError, ThirdPartyRequest
 
+    if not args.close and not args.task:
+        args.usage_error("give a task type (and Key=Value properties) or --close")
     try:
         request = ThirdPartyRequest(args.job, args.client)
         if args.close:
             text = request.close()
         else:
-            if not args.task:
-                raise RequestError("give a task type (and Key=Value properties) or --close")
-            for item in args.properties:
-                key, eq, value = item.partition("=")
-                if not eq:
-                    raise RequestError(f"expected Key=Value, got {item!r}")
+            for key, value in args.properties:
                 request.add_property(key, value)
             text = request.execute_task(args.task)
-        target = tuple(int(v) for v in args.target.split(":"))
-        source = tuple(int(v) for v in args.source.split(":"))
-        if len(target) != 2 or len(source) != 2:
-            raise ValueError("expected SYSTEM:COMPONENT")
-        transport_for(args.connect, 57600)
-    except (RequestError, ValueError) as exc:
+    except RequestError as exc:
         print(f"mavhelm request: {exc}", file=sys.stderr)
         return 2
+    target, source = args.target, args.source
     link = AutopilotLink(args.connect, system_id=source[0], component_id=source[1] or
                          GUEST_COMPONENT, target_system=target[0], target_component=target[1])
     print(f"mavhelm request: {text}", flush=True)
@@ -135,11 +128,42 @@ def _request(args: argparse.Namespace) -> int:
     finally:
         link.close()
     if reply is None:
-        print(f"mavhelm request: no answer from {args.target} in {args.wait:g} s",
+        print(f"mavhelm request: no answer from {target[0]}:{target[1]} in {args.wait:g} s",
               file=sys.stderr)
         return 1
     print(f"mavhelm request: {reply}")
     return 0 if ":DENIED:" not in reply else 1
+
+
+def _link_address(text: str) -> str:
+    """An autopilot link (``--connect``): tcp:HOST:PORT, udp:HOST:PORT or a serial device."""
+    from mavhelm.companion.link import transport_for
+
+    try:
+        transport_for(text, 57600)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+def _system_component(text: str) -> tuple[int, int]:
+    """``SYSTEM:COMPONENT`` (``--target``, ``--source``)."""
+    parts = text.split(":")
+    try:
+        ids = tuple(int(v) for v in parts)
+    except ValueError:
+        ids = ()
+    if len(ids) != 2 or not all(0 <= v <= 255 for v in ids):
+        raise argparse.ArgumentTypeError(f"expected SYSTEM:COMPONENT (0-255 each), not {text!r}")
+    return ids[0], ids[1]
+
+
+def _key_value(text: str) -> tuple[str, str]:
+    """A third-party request's ``Key=Value`` property."""
+    key, eq, value = text.partition("=")
+    if not eq or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected Key=Value, not {text!r}")
+    return key, value
 
 
 def _sim(args: argparse.Namespace) -> int:
@@ -158,13 +182,9 @@ def _demo(args: argparse.Namespace) -> int:
     from mavhelm.demo import DEFAULT_MISSION, run_demo
     from mavhelm.sitl.faults import Scenario
 
-    if args.model and args.variant:
-        print("mavhelm demo: --model replaces --vehicle/--variant; give one or the other",
-              file=sys.stderr)
-        return 2
     scenario = Scenario.from_file(args.scenario) if args.scenario else None
-    result = run_demo(args.mission or DEFAULT_MISSION, args.out, vehicle=args.vehicle,
-                      variant=args.variant, model=args.model, defaults=args.defaults,
+    result = run_demo(args.mission or DEFAULT_MISSION, args.out, model=args.model,
+                      defaults=args.defaults,
                       fast_start=args.fast_start, scenario=scenario, seed=args.seed)
     return 0 if result.ended else 1
 
@@ -184,7 +204,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run the helm and navigator next to a real autopilot")
     run.add_argument("mission", help="mission file (.moos)")
-    run.add_argument("--connect", help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
+    run.add_argument("--connect", type=_link_address,
+                     help="autopilot link: tcp:HOST:PORT, udp:HOST:PORT or a "
                      "serial device such as /dev/ttyAMA0 (default: the mission's Connect)")
     run.add_argument("--log-dir", default=None,
                      help="where the .alog goes (default: the mission's pLogger LogDir, runs/)")
@@ -200,25 +221,29 @@ def build_parser() -> argparse.ArgumentParser:
                            "parameters the companion needs, say what is wrong and how to fix it")
     check.add_argument("mission", nargs="?", default=None,
                        help="the mission to check against (origin, actuation, servos)")
-    check.add_argument("--connect", help="autopilot link (default: the mission's Connect)")
-    check.add_argument("--listen", type=float, default=8.0,
+    check.add_argument("--connect", type=_link_address,
+                       help="autopilot link (default: the mission's Connect)")
+    check.add_argument("--listen", type=runner.positive_number, default=8.0,
                        help="seconds to listen for streams and parameters (default 8)")
     check.set_defaults(func=_check)
 
     request = sub.add_parser("request", help="a guest's third-party request to the helm, over "
                              "MAVLink (spec 1.3)")
     request.add_argument("task", nargs="?", help="task type, e.g. GoToWayPoint")
-    request.add_argument("properties", nargs="*", metavar="Key=Value",
+    request.add_argument("properties", nargs="*", metavar="Key=Value", type=_key_value,
                          help="the task's settings, e.g. Location=10,20")
-    request.add_argument("--connect", required=True, help="where to reach the vehicle")
+    request.add_argument("--connect", required=True, type=_link_address,
+                         help="where to reach the vehicle")
     request.add_argument("--job", required=True)
     request.add_argument("--client", required=True)
     request.add_argument("--close", action="store_true", help="end this client's transaction")
-    request.add_argument("--target", default="1:191", help="the companion (default 1:191)")
-    request.add_argument("--source", default="1:25",
+    request.add_argument("--target", default="1:191", type=_system_component,
+                         help="the companion (default 1:191)")
+    request.add_argument("--source", default="1:25", type=_system_component,
                          help="this guest's system:component (default 1:25)")
-    request.add_argument("--wait", type=float, default=5.0, help="seconds to wait for the answer")
-    request.set_defaults(func=_request)
+    request.add_argument("--wait", type=runner.positive_number, default=5.0,
+                         help="seconds to wait for the answer")
+    request.set_defaults(func=_request, usage_error=request.error)
 
     from mavhelm.companion import remote as remote_console
 
@@ -252,13 +277,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("mission", nargs="?", default=None,
                       help="mission file (default examples/demo.moos)")
     demo.add_argument("--out", default="runs", help="output folder (default runs/)")
-    demo.add_argument("--vehicle", default="boat", choices=["boat", "rover"])
-    demo.add_argument("--variant", default=None, help="boat: skid|rudder; rover: ackermann|skid")
-    from mavhelm.sitl.models import ALL_MODEL_NAMES
+    from mavhelm.sitl.models import DEFAULT_MODEL, MODEL_NAMES
 
-    demo.add_argument("--model", default=None, choices=ALL_MODEL_NAMES, metavar="NAME",
-                      help="ArduPilot SITL vehicle model (motorboat, motorboat-skid, rover, "
-                           "rover-skid); replaces --vehicle/--variant")
+    demo.add_argument("--model", default=DEFAULT_MODEL, choices=MODEL_NAMES, metavar="NAME",
+                      help=f"vehicle model: {', '.join(MODEL_NAMES)} (default {DEFAULT_MODEL})")
     demo.add_argument("--defaults", default=None, metavar="FILE[,FILE...]",
                       help="ArduPilot .parm files applied over the parameter table")
     demo.add_argument("--fast-start", action="store_true",

@@ -22,7 +22,7 @@ import re
 import select
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -58,6 +58,12 @@ TOLERANCES: tuple[tuple[str, float], ...] = (
     ("param:*", 1e-4),
     ("startup.boot_text_count", 1.0),
     ("attitude.yaw_bias*", 0.5),  # degrees
+    # run_turn_rate_scenario: 10 % of the real rover's figures (rate mean 14.4, settled 16.7
+    # deg/s; speed mean 2.05, settled 2.47 m/s)
+    ("turn.rate_mean", 1.4),
+    ("turn.rate_peak", 1.7),
+    ("turn.rate_settled", 1.7),
+    ("turn.speed_*", 0.2),
 )
 
 
@@ -109,6 +115,9 @@ class Record:
     forwarded: list[tuple[str, int]]  # (link, sysid) of other clients' heartbeats relayed
     global_pos: tuple[float, float] | None = None  # latest GLOBAL_POSITION_INT lat, lon (degE7)
     global_seen: int = 0
+    # (t, ATTITUDE yawspeed rad/s, last VFR_HUD groundspeed m/s)
+    rates: list[tuple[float, float, float]] = field(default_factory=list)
+    groundspeed: float = 0.0
 
 
 class Driver:
@@ -165,6 +174,9 @@ class Driver:
             r.gps.append((t, msg.fix_type, msg.satellites_visible, msg.eph, msg.epv))
         elif kind == "ATTITUDE":
             self._attitude = (t, msg.yaw)
+            r.rates.append((t, msg.yawspeed, r.groundspeed))
+        elif kind == "VFR_HUD":
+            r.groundspeed = msg.groundspeed
         elif kind == "SIMSTATE" and self._attitude is not None:
             # ATTITUDE and SIMSTATE leave together (stream EXTRA1, in that order)
             if self._attitude[0] == t:
@@ -295,37 +307,17 @@ def run_scenario(side: Side) -> dict[str, Any]:
 
     # arming and GUIDED: retried until accepted, as an operator clicking again
     d.until(11.0)
-    refusals: set[str] = set()
-    results: set[int | None] = set()
-    while True:
-        t0, m0 = d.t, d.mark()
-        res = d.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        if res == M.MAV_RESULT_ACCEPTED:
-            obs["arm.first_accepted_at"] = round(t0, 1)
-            break
-        results.add(res)
-        d.until(t0 + 1.0)
-        refusals.update(d.texts_since(m0))
-        if d.t > 90:
-            obs["arm.first_accepted_at"] = None
-            break
-    obs["arm.refusal.results"] = sorted(r for r in results if r is not None)
-    obs["arm.refusal.texts"] = sorted(refusals)
-    refusals, results = set(), set()
-    while True:
-        t0, m0 = d.t, d.mark()
-        res = d.set_mode(15)
-        if res == M.MAV_RESULT_ACCEPTED:
-            obs["guided.first_accepted_at"] = round(t0, 1)
-            break
-        results.add(res)
-        d.until(t0 + 1.0)
-        refusals.update(d.texts_since(m0))
-        if d.t > 100:
-            obs["guided.first_accepted_at"] = None
-            return _finish(d, obs)
-    obs["guided.refusal.results"] = sorted(r for r in results if r is not None)
-    obs["guided.refusal.texts"] = sorted(refusals)
+    at, results, refusals = _until_accepted(
+        d, lambda: d.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1), 90.0)
+    obs["arm.first_accepted_at"] = at
+    obs["arm.refusal.results"] = results
+    obs["arm.refusal.texts"] = refusals
+    at, results, refusals = _until_accepted(d, lambda: d.set_mode(15), 100.0)
+    obs["guided.first_accepted_at"] = at
+    if at is None:
+        return _finish(d, obs)
+    obs["guided.refusal.results"] = results
+    obs["guided.refusal.texts"] = refusals
     obs["guided.heartbeat"] = d.next_heartbeat()
 
     # SET_ATTITUDE_TARGET turn rate + thrust, then silence: the 3 s time-out
@@ -428,6 +420,58 @@ def run_scenario(side: Side) -> dict[str, Any]:
     d.until(t0 + 1.0)
     obs["disarm.heartbeat"] = d.next_heartbeat()
     return _finish(d, obs)
+
+
+def _until_accepted(d: Driver, send: Callable[[], int | None],
+                    give_up_at: float) -> tuple[float | None, list[int], list[str]]:
+    """Send (a command) once a second until accepted, as an operator clicking again: (when it
+    was accepted or None, the other results, the texts heard in between)."""
+    refusals: set[str] = set()
+    results: set[int | None] = set()
+    while True:
+        t0, m0 = d.t, d.mark()
+        res = send()
+        if res == M.MAV_RESULT_ACCEPTED:
+            accepted: float | None = round(t0, 1)
+            break
+        results.add(res)
+        d.until(t0 + 1.0)
+        refusals.update(d.texts_since(m0))
+        if d.t > give_up_at:
+            accepted = None
+            break
+    return accepted, sorted(r for r in results if r is not None), sorted(refusals)
+
+
+def run_turn_rate_scenario(side: Side, rate: float = 0.3, thrust: float = 0.5,
+                           seconds: float = 8.0) -> dict[str, Any]:
+    """The rover turning on SET_ATTITUDE_TARGET (body yaw rate rad/s + thrust) for ``seconds``
+    from rest: the yaw rate's mean, peak and settled value (the last quarter) in deg/s, and the
+    mean and settled ground speed, as ATTITUDE and VFR_HUD report them."""
+    d = Driver(side)
+    d.until(1.0)
+    for sid in (M.MAV_DATA_STREAM_EXTRA1, M.MAV_DATA_STREAM_EXTRA2):
+        side.gcs.mav.request_data_stream_send(1, 1, sid, 10, 1)
+    d.until(11.0)
+    armed, _, _ = _until_accepted(d, lambda: d.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1), 90.0)
+    guided, _, _ = _until_accepted(d, lambda: d.set_mode(15), 100.0)
+    if armed is None or guided is None:
+        return {"turn.engaged": False}
+    start = d.t
+    d.stream(side.companion, 0.1, seconds, lambda c: c.mav.set_attitude_target_send(
+        0, 1, 1, 0x03, [1, 0, 0, 0], 0, 0, rate, thrust))
+    rows = [(t - start, math.degrees(w), v) for t, w, v in d.r.rates if start < t <= d.t]
+    if not rows:
+        return {"turn.engaged": True}
+    settled = [row for row in rows if row[0] >= 0.75 * seconds]
+    return {
+        "turn.engaged": True,
+        "turn.rate_mean": round(sum(w for _, w, _ in rows) / len(rows), 2),
+        "turn.rate_peak": round(max(w for _, w, _ in rows), 2),
+        "turn.rate_settled": round(sum(w for _, w, _ in settled) / len(settled), 2),
+        "turn.speed_mean": round(sum(v for _, _, v in rows) / len(rows), 3),
+        "turn.speed_settled": round(sum(v for _, _, v in settled) / len(settled), 3),
+    }
 
 
 def _wait_text(d: Driver, fragment: str, max_s: float, since: float | None = None) -> float | None:

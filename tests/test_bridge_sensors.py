@@ -197,8 +197,8 @@ def test_a_driving_simulated_rovers_wheels_give_its_speed_forward() -> None:
     config = BridgeConfig(connect=f"udpin:127.0.0.1:{port}")
     config.streams["WHEEL_DISTANCE"] = 5.0
     bridge = MavlinkBridge(bus, config, ORIGIN)
-    sim = Simulator(clock, vehicle="rover", ports=(), udp_out=[("127.0.0.1", port)], home=ORIGIN,
-                    start_heading=90.0, fast_start=True)
+    sim = Simulator(clock, model="mavhelm-rover", ports=(), udp_out=[("127.0.0.1", port)],
+                    home=ORIGIN, start_heading=90.0, fast_start=True)
     mail: list[Message] = []
     next_ask = 0.0
 

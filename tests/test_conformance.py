@@ -1,10 +1,12 @@
-"""`mavhelm sim` against the real ArduPilot Rover SITL: one scenario, both sides, every answer.
+"""`mavhelm sim` against the real ArduPilot Rover SITL: the same scenarios on both sides.
 
-The scenario (tests/conformance.py) runs once per side per module: the real binary at
+Each scenario (tests/conformance.py) runs once per side per module: the real binary at
 ``--speedup 10`` (about 8 s of wall time; skipped without MAVHELM_ARDUPILOT) and the simulator
-in lockstep (about 2 s). Any difference beyond tolerance that docs/sim-differences.md does not
-list fails. The sim-only tests pin the measured facts so they hold without the binary too.
-Run with -s to see the observations and timings.
+in lockstep (about 2 s). The main one drives the motorboat through the protocol; the turn-rate
+one holds the ``rover`` (stock rover.parm) on a SET_ATTITUDE_TARGET turn for 8 s. Any
+difference beyond tolerance that docs/sim-differences.md does not list fails. The sim-only
+tests pin the measured facts so they hold without the binary too. Run with -s to see the
+observations and timings.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from conformance import (
     accepted_differences,
     compare,
     run_scenario,
+    run_turn_rate_scenario,
     unaccepted,
 )
 
@@ -35,7 +38,7 @@ def sim_obs() -> dict[str, Any]:
     from sitl_rig import Rig
 
     t0 = time.monotonic()
-    rig = Rig(variant="rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
+    rig = Rig(model="mavhelm-boat-rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
               start_heading=HOME[3], wait_for_client=True)
     try:
         obs = run_scenario(SimSide(rig))
@@ -62,6 +65,59 @@ def real_obs(tmp_path_factory) -> dict[str, Any]:
             side.close()
     print(f"\nreal ArduPilot SITL scenario: {time.monotonic() - t0:.1f} s wall")
     return obs
+
+
+TURN_HOME = (56.4120, -5.4760, 0, 90)
+
+
+@pytest.fixture(scope="module")
+def sim_turn() -> dict[str, Any]:
+    from braking import ROVER_PARM
+    from sitl_rig import Rig
+
+    from mavhelm.sitl.parm_file import parse_parm
+
+    rig = Rig(model="rover", defaults=parse_parm(ROVER_PARM, "rover.parm"),
+              fast_start=False, home=Origin(TURN_HOME[0], TURN_HOME[1]),
+              start_heading=TURN_HOME[3], wait_for_client=True)
+    try:
+        return run_turn_rate_scenario(SimSide(rig))
+    finally:
+        rig.close()
+
+
+@pytest.fixture(scope="module")
+def real_turn(tmp_path_factory) -> dict[str, Any]:
+    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+
+    binary = ardupilot_binary()
+    if binary is None:
+        pytest.skip(SKIP_REASON)
+    with RealSitl(tmp_path_factory.mktemp("turn"), binary=binary, model="rover", speedup=10,
+                  home=TURN_HOME) as sitl:
+        side = RealSide(sitl)
+        try:
+            return run_turn_rate_scenario(side)
+        finally:
+            side.close()
+
+
+@pytest.mark.slow
+def test_rover_turn_rate_as_the_real_sitl(real_turn, sim_turn) -> None:
+    """SET_ATTITUDE_TARGET 0.3 rad/s, thrust 0.5, 8 s: the rover's yaw rate and speed within
+    10 % of the real SITL's (steering scaled down above MOT_SPD_SCA_BASE, I-term held below)."""
+    print(f"\n  real {real_turn}\n  sim  {sim_turn}")
+    assert real_turn["turn.engaged"] and sim_turn["turn.engaged"]
+    bad = compare(real_turn, sim_turn)
+    assert not bad, "\n".join(str(d) for d in bad)
+
+
+def test_sim_alone_keeps_the_measured_turn_rate(sim_turn) -> None:
+    """The real rover's figures as measured (Rover 4.8-dev, rover.parm): yaw rate mean 14.4,
+    peak 16.9, settled 16.7 deg/s; speed mean 2.09, settled 2.47 m/s."""
+    assert not compare({"turn.engaged": True, "turn.rate_mean": 14.4, "turn.rate_peak": 16.9,
+                        "turn.rate_settled": 16.7, "turn.speed_mean": 2.09,
+                        "turn.speed_settled": 2.47}, sim_turn)
 
 
 @pytest.mark.slow

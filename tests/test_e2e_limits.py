@@ -174,7 +174,7 @@ GRID = """
 def test_steer_then_drive_pivots_before_driving_on_a_skid_boat():
     # "moved < 2 m while pivoting" assumes 2 m/s at full thrust: WP_SPEED 2 (Rover's default 5
     # carries 3 m/s into the pivot, which takes ~5 m to brake at ATC_ACCEL_MAX 1 m/s²)
-    with SimulatedRun.start(mission(GRID), fast_start=True, variant="skid",
+    with SimulatedRun.start(mission(GRID), fast_start=True, model="mavhelm-boat",
                             params={"WP_SPEED": 2.0},
                             record={"Grid_PHASE", "Grid_WAYPOINT"}) as run:
         assert run.run_mission(200.0)

@@ -129,7 +129,7 @@ def _metres_apart(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
 
 @pytest.mark.parametrize("vehicle", ["boat", "rover"])
 def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on):
-    with RealtimeSim(vehicle=vehicle, home=HOME, start_heading=30.0) as rs:
+    with RealtimeSim(model=f"mavhelm-{vehicle}", home=HOME, start_heading=30.0) as rs:
         c = client_on(rs.ports[1])  # the port a second ground station uses (5762 in SITL)
         FM = c.FlightMode
         sysm = c.system
@@ -205,7 +205,7 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
 def test_mavsdk_goto_location_drives_the_rover_and_its_position_follows(client_on):
     """Action.goto_location puts ArduPilot in GUIDED with a target; MAVSDK's position tracks the
     moving vehicle's truth."""
-    with RealtimeSim(vehicle="rover", home=HOME) as rs:
+    with RealtimeSim(model="mavhelm-rover", home=HOME) as rs:
         c = client_on(rs.ports[1])
         rs.wait(lambda s: s.autopilot.position_ok(), 10, "the EKF to use GPS")
         wait_until(lambda: math.isfinite(c.telemetry.position().latitude_deg), 10,
@@ -241,7 +241,7 @@ def test_mavsdk_goto_location_drives_the_rover_and_its_position_follows(client_o
 def test_mavsdk_against_the_mavhelm_sim_command(client_on):
     """The same client against the real ``mavhelm sim`` command, checked by a companion link."""
     _import_mavsdk()
-    with SimProcess("--fast-start", "--vehicle", "rover", "--home",
+    with SimProcess("--fast-start", "--model", "mavhelm-rover", "--home",
                     f"{HOME.lat},{HOME.lon},0") as sim, Companion(sim.ports[0]) as companion:
         c = client_on(sim.ports[1])
         assert c.system.autopilot_type() == c.Autopilot.ARDUPILOT

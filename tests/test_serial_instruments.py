@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from nmea_read import read_sentence
 
 from mavhelm.companion.link import SerialTransport
 from mavhelm.companion.serial_instruments import (
@@ -171,7 +172,7 @@ def test_no_fix_posts_fix_zero_and_no_position() -> None:
     assert rig.posted("S_FIX") == [0.0]
     assert not rig.posted("S_X") and not rig.posted("S_SPEED") and rig.drops() == {}
     rmc_only = Rig("RMC")  # FIX then comes from RMC: status V → 0, mode D → 2
-    address, fields = nmea.parse_sentence(nmea.rmc(T0 + 1, *ORIGIN.to_global(1.0, 2.0), 1.0, 10))
+    address, fields = read_sentence(nmea.rmc(T0 + 1, *ORIGIN.to_global(1.0, 2.0), 1.0, 10))
     fields[-1] = "D"
     rmc_only.feed(nmea.rmc(T0, None, None), nmea.sentence(address, fields))
     rmc_only.tick(0.1)

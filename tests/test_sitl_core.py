@@ -36,7 +36,7 @@ def test_heartbeat_identifies_a_boat_autopilot(rig):
 
 
 def test_rover_heartbeat_type():
-    r = Rig(vehicle="rover")
+    r = Rig(model="mavhelm-rover")
     try:
         c = r.connect()
         r.run(1.0)

@@ -9,7 +9,7 @@ import pytest
 
 from mavhelm.sitl import boat, rover
 from mavhelm.sitl.boat import SimEnvironment
-from mavhelm.sitl.models import MODELS, get_model
+from mavhelm.sitl.models import MODELS, SITL_MODELS, get_model
 
 
 def _settle(step, state, inputs, env, params, seconds=60.0, dt=0.02):
@@ -264,7 +264,9 @@ def test_tide_carries_the_hull_only_while_armed():
 
 
 def test_registry_names_defaults_and_servo_functions():
-    assert sorted(MODELS) == ["motorboat", "motorboat-skid", "rover", "rover-skid"]
+    assert sorted(SITL_MODELS) == ["motorboat", "motorboat-skid", "rover", "rover-skid"]
+    assert set(MODELS) == set(SITL_MODELS) | {"mavhelm-boat", "mavhelm-boat-rudder",
+                                              "mavhelm-rover", "mavhelm-rover-skid"}
     assert get_model("motorboat").defaults == ("rover.parm", "motorboat.parm")
     assert get_model("motorboat-skid").defaults == ("rover.parm", "motorboat.parm",
                                                     "rover-skid.parm")

@@ -45,9 +45,11 @@ def test_param_read_set_and_list(rig):
 
 
 def test_servo_functions_per_frame():
-    for vehicle, variant, fns in (("boat", "skid", (73, 74)), ("boat", "rudder", (26, 70)),
-                                  ("rover", "ackermann", (26, 70)), ("rover", "skid", (73, 74))):
-        r = Rig(vehicle=vehicle, variant=variant, ports=(0,))
+    for vehicle, model, fns in (("boat", "mavhelm-boat", (73, 74)),
+                                ("boat", "mavhelm-boat-rudder", (26, 70)),
+                                ("rover", "mavhelm-rover", (26, 70)),
+                                ("rover", "mavhelm-rover-skid", (73, 74))):
+        r = Rig(model=model, ports=(0,))
         try:
             assert (r.sim.params["SERVO1_FUNCTION"], r.sim.params["SERVO3_FUNCTION"]) == fns
             assert r.sim.params["FRAME_CLASS"] == (2 if vehicle == "boat" else 1)
@@ -104,7 +106,7 @@ def test_position_target_reached_boat_loiters(rig):
 
 
 def test_position_target_local_ned_rover_stops():
-    r = Rig(vehicle="rover")
+    r = Rig(model="mavhelm-rover")
     try:
         c = r.connect()
         arm_guided(r, c)
@@ -238,7 +240,7 @@ def test_boat_reports_depth_rover_reports_wheels():
         assert not c.of("WHEEL_DISTANCE")
     finally:
         r.close()
-    r = Rig(vehicle="rover", ports=(0,))
+    r = Rig(model="mavhelm-rover", ports=(0,))
     try:
         c = r.connect()
         r.run(2.0)
@@ -469,7 +471,7 @@ def test_current_drifts_a_holding_boat_but_loiter_holds_station():
 
 
 def test_rtl_brings_the_rover_home():
-    r = Rig(vehicle="rover", ports=(0,))
+    r = Rig(model="mavhelm-rover", ports=(0,))
     try:
         c = r.connect()
         arm_guided(r, c)

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
+from nmea_read import ParseError, read_sentence
 
 from mavhelm.core.clock import SimClock
 from mavhelm.sitl import runner
@@ -25,9 +26,8 @@ def _parse(*argv: str) -> argparse.Namespace:
 
 def test_runner_options():
     a = _parse()
-    assert (a.vehicle, a.variant, a.port, a.out, a.speedup) == ("boat", None, [5760, 5762, 5763],
-                                                                [], 1.0)
-    a = _parse("--vehicle", "rover", "--variant", "skid", "--port", "0,0", "--out",
+    assert (a.model, a.port, a.out, a.speedup) == ("mavhelm-boat", [5760, 5762, 5763], [], 1.0)
+    a = _parse("--model", "mavhelm-rover-skid", "--port", "0,0", "--out",
                "udp:127.0.0.1:14550", "--out", "udp:10.0.0.2:14551", "--home", "50.1,-4.2,90",
                "--speedup", "5", "--fast-start", "--seed", "3")
     assert a.port == [0, 0] and a.out == [("127.0.0.1", 14550), ("10.0.0.2", 14551)]
@@ -36,9 +36,13 @@ def test_runner_options():
         _parse("--out", "tcp:1.2.3.4:5")
 
 
-def test_runner_rejects_a_bad_variant(capsys):
-    assert runner.run(_parse("--vehicle", "rover", "--variant", "rudder")) == 2
-    assert "variant" in capsys.readouterr().err
+def test_runner_refuses_bad_options_with_a_usage_error(capsys):
+    for argv in (("--model", "mavhelm-rover-rudder"), ("--speedup", "0"), ("--speedup", "nan"),
+                 ("--param", "WP_SPEED"), ("--param", "WP_SPEED=inf")):
+        with pytest.raises(SystemExit):
+            _parse(*argv)
+        assert "usage:" in capsys.readouterr().err
+    assert _parse("--param", "wp_speed=2").param == [("WP_SPEED", 2.0)]
 
 
 def _recording(seed: int, scenario=None) -> bytes:
@@ -202,11 +206,9 @@ def test_sim_closes_the_sensor_ptys_on_ctrl_c(monkeypatch, capsys):
 
 
 def _gga_position(line: bytes) -> tuple[float, float] | None:
-    from mavhelm.sitl import nmea
-
     try:
-        address, f = nmea.parse_sentence(line)
-    except nmea.NmeaError:
+        address, f = read_sentence(line)
+    except ParseError:
         return None  # e.g. the tail of a line that was arriving as the port was opened
     if not address.endswith("GGA") or f[5] != "1":
         return None

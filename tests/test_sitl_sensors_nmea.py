@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pynmea2
 import pytest
+from nmea_read import ParseError, latlon, read_sentence
 
 from mavhelm.sitl import nmea
 
@@ -13,18 +14,18 @@ T0 = 1_767_225_600.0 + 13 * 3600 + 45 * 60 + 7.25  # 2026-01-01 13:45:07.25 UTC
 def test_checksum_of_the_textbook_gga() -> None:
     body = "GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"
     assert nmea.checksum(body) == "47"
-    address, fields = nmea.parse_sentence(f"${body}*47\r\n")
+    address, fields = read_sentence(f"${body}*47\r\n")
     assert address == "GPGGA" and fields[1] == "4807.038" and len(fields) == 14
 
 
 @pytest.mark.parametrize("lat,lon", [(50.3712345, -4.1423456), (-33.8567844, 151.2152967)])
 def test_gga_round_trip(lat: float, lon: float) -> None:
     line = nmea.gga(T0, lat, lon, satellites=9, hdop=1.2, altitude=3.4)
-    address, f = nmea.parse_sentence(line)
+    address, f = read_sentence(line)
     assert address == "GPGGA" and len(f) == 14
     assert f[0] == "134507.25"
-    assert nmea.parse_latlon(f[1], f[2]) == pytest.approx(lat, abs=2e-8)
-    assert nmea.parse_latlon(f[3], f[4]) == pytest.approx(lon, abs=2e-8)
+    assert latlon(f[1], f[2]) == pytest.approx(lat, abs=2e-8)
+    assert latlon(f[3], f[4]) == pytest.approx(lon, abs=2e-8)
     assert (f[5], f[6], f[7], f[8]) == ("1", "09", "1.20", "3.4")
     msg = pynmea2.parse(line, check=True)
     assert msg.latitude == pytest.approx(lat, abs=2e-8)
@@ -34,14 +35,14 @@ def test_gga_round_trip(lat: float, lon: float) -> None:
 
 def test_gga_no_fix_has_empty_position() -> None:
     line = nmea.gga(T0, None, None)
-    _, f = nmea.parse_sentence(line)
+    _, f = read_sentence(line)
     assert f[1:5] == ["", "", "", ""] and f[5] == "0"
     assert pynmea2.parse(line, check=True).gps_qual == 0
 
 
 def test_rmc_round_trip() -> None:
     line = nmea.rmc(T0, 50.5, -4.25, sog_mps=2.0, cog_deg=-10.0)
-    address, f = nmea.parse_sentence(line)
+    address, f = read_sentence(line)
     assert address == "GPRMC" and len(f) == 12
     assert f[1] == "A" and f[8] == "010126" and f[11] == "A"
     assert float(f[6]) == pytest.approx(2.0 * 3600 / 1852, abs=0.005)
@@ -50,8 +51,8 @@ def test_rmc_round_trip() -> None:
     assert msg.latitude == pytest.approx(50.5) and msg.longitude == pytest.approx(-4.25)
     assert msg.datestamp.isoformat() == "2026-01-01"
     # a course that rounds up to 360.0 is written 0.0
-    assert nmea.parse_sentence(nmea.rmc(T0, 1, 1, 1, 359.99))[1][7] == "0.0"
-    _, lost = nmea.parse_sentence(nmea.rmc(T0, None, None))
+    assert read_sentence(nmea.rmc(T0, 1, 1, 1, 359.99))[1][7] == "0.0"
+    _, lost = read_sentence(nmea.rmc(T0, None, None))
     assert lost[1] == "V" and lost[2] == ""
 
 
@@ -63,27 +64,27 @@ def test_time_and_angle_rounding_carry() -> None:
 
 
 def test_hdt_dpt_dbt() -> None:
-    assert nmea.parse_sentence(nmea.hdt(123.44)) == ("HEHDT", ["123.4", "T"])
-    assert nmea.parse_sentence(nmea.hdt(-0.02)) == ("HEHDT", ["0.0", "T"])
-    assert nmea.parse_sentence(nmea.hdt(370.0))[1][0] == "10.0"
+    assert read_sentence(nmea.hdt(123.44)) == ("HEHDT", ["123.4", "T"])
+    assert read_sentence(nmea.hdt(-0.02)) == ("HEHDT", ["0.0", "T"])
+    assert read_sentence(nmea.hdt(370.0))[1][0] == "10.0"
     assert float(pynmea2.parse(nmea.hdt(271.25), check=True).heading) == pytest.approx(271.2, 0.1)
     d = pynmea2.parse(nmea.dpt(12.345, 0.3, 100.0), check=True)
     assert float(d.depth) == pytest.approx(12.35, abs=0.006) and float(d.offset) == 0.3
-    assert nmea.parse_sentence(nmea.dpt(None, 0.3))[1][0] == ""
-    _, f = nmea.parse_sentence(nmea.dbt(10.0))
+    assert read_sentence(nmea.dpt(None, 0.3))[1][0] == ""
+    _, f = read_sentence(nmea.dbt(10.0))
     assert f == ["32.8", "f", "10.00", "M", "5.5", "F"]
     assert pynmea2.parse(nmea.dbt(None), check=True).depth_meters is None
 
 
 def test_proprietary_sentences() -> None:
     line = nmea.pmvhdvl(12.5, 1.2345, -0.0004, 0.01, 8.2)
-    assert nmea.parse_sentence(line) == (
+    assert read_sentence(line) == (
         "PMVHDVL",
         ["12.500", "1.234", "0.000", "0.010", "A", "8.20"],
     )
     msg = pynmea2.parse(line, check=True)  # a valid NMEA proprietary sentence: maker "MVH"
     assert msg.manufacturer == "MVH" and msg.data[0] == "DVL"
-    assert nmea.parse_sentence(nmea.pmvhdvl(1.0, None, None, None, None))[1] == [
+    assert read_sentence(nmea.pmvhdvl(1.0, None, None, None, None))[1] == [
         "1.000",
         "",
         "",
@@ -91,11 +92,11 @@ def test_proprietary_sentences() -> None:
         "V",
         "",
     ]
-    assert nmea.parse_sentence(nmea.pmvhlbl(10.0, [("1", 0.1234567), ("B2", None)])) == (
+    assert read_sentence(nmea.pmvhlbl(10.0, [("1", 0.1234567), ("B2", None)])) == (
         "PMVHLBL",
         ["10.000", "1", "0.123457", "B2", ""],
     )
-    assert nmea.parse_sentence(nmea.pmvhrng(3.25, "4", 45.6789)) == (
+    assert read_sentence(nmea.pmvhrng(3.25, "4", 45.6789)) == (
         "PMVHRNG",
         ["3.250", "4", "45.679"],
     )
@@ -114,8 +115,8 @@ def test_proprietary_sentences() -> None:
     ],
 )
 def test_parse_rejects_bad_lines(bad: str | bytes) -> None:
-    with pytest.raises(nmea.NmeaError):
-        nmea.parse_sentence(bad)
+    with pytest.raises(ParseError):
+        read_sentence(bad)
 
 
 def test_sentence_refuses_reserved_characters() -> None:

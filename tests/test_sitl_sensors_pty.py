@@ -6,8 +6,8 @@ import time
 
 import pytest
 import serial
+from nmea_read import ParseError, read_sentence
 
-from mavhelm.sitl import nmea
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.serial_sensors import HeadingSensor, NmeaGps, PtySerialPort
@@ -28,7 +28,7 @@ def test_pyserial_reads_exact_sentences_from_the_pty() -> None:
         assert b"".join(lines) == bytes(port.output)  # byte for byte, CRLF kept
         for k, line in enumerate(lines):
             assert line.endswith(b"\r\n")
-            address, fields = nmea.parse_sentence(line)
+            address, fields = read_sentence(line)
             assert address == "HEHDT"
             assert float(fields[0]) == pytest.approx((10.0 * k / 10) % 360.0, abs=0.051)
         assert port.stats["written"] == 21 and port.stats["dropped"] == 0
@@ -56,7 +56,7 @@ def test_full_buffer_drops_whole_lines_without_blocking() -> None:
     lines = (buffered + fresh).split(b"\r\n")
     assert lines[-1] == b""  # a line the pty only half took is finished first: none is cut
     for line in lines[:-1]:
-        nmea.parse_sentence(line)  # every line that got through is whole
+        read_sentence(line)  # every line that got through is whole
     assert fresh.count(b"$GPGGA") == 6  # slots 80.00 … 80.10 s at 50 Hz
 
 
@@ -83,9 +83,9 @@ def test_garbage_reaches_the_reader() -> None:
     good = 0
     for line in data.split(b"\r\n"):
         try:
-            nmea.parse_sentence(line)
+            read_sentence(line)
             good += 1
-        except nmea.NmeaError:
+        except ParseError:
             pass
     assert good == 0
 
@@ -100,7 +100,7 @@ def test_default_ports_on_ptys() -> None:
         with serial.Serial(ports[0].slave_path, timeout=0.5) as ser:  # type: ignore[attr-defined]
             for p in ports:
                 p.update(truth(0.0), 0.0)
-            assert nmea.parse_sentence(ser.readline())[0] == "GPGGA"
+            assert read_sentence(ser.readline())[0] == "GPGGA"
     finally:
         for p in ports:
             p.close()

@@ -20,10 +20,10 @@ import time
 
 import pytest
 import serial
+from nmea_read import read_sentence
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.clock import AutopilotClock
-from mavhelm.sitl import nmea
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.instruments_runner import (
@@ -213,7 +213,7 @@ def test_nmea_gps_tells_the_autopilots_utc_and_the_simstate_position() -> None:
                                           unix_us=round((utc_boot0 + boot_ms / 1000) * 1e6))):
             gps.sensor.epoch = feed.gps_epoch
             lines += gps.poll(truth, truth.t)
-    ggas = [nmea.parse_sentence(line)[1] for line in lines.split(b"\r\n")
+    ggas = [read_sentence(line)[1] for line in lines.split(b"\r\n")
             if line.startswith(b"$GPGGA")]
     assert len(ggas) == 3                    # 1 Hz over 20.0 ... 22.4 s
     for fields in ggas:
@@ -324,10 +324,10 @@ def test_runner_serves_truth_on_ptys_and_survives_a_lost_link() -> None:
                 runner.step(0.01)
             assert feed.samples == 20
             assert any("time stamps = autopilot boot s + " in s for s in said)
-            hdts = [nmea.parse_sentence(line) for line in hdt.read(10_000).splitlines()]
+            hdts = [read_sentence(line) for line in hdt.read(10_000).splitlines()]
             assert 15 <= len(hdts) <= 21
             assert all(a == "HEHDT" and abs(float(f[0]) - 45.0) < 1.5 for a, f in hdts)
-            rngs = [nmea.parse_sentence(line)[1] for line in rng.read(10_000).splitlines()]
+            rngs = [read_sentence(line)[1] for line in rng.read(10_000).splitlines()]
             assert len(rngs) >= 3
             for t, beacon, r in rngs:   # the boat is 100 - y m from the beacon (antenna 1 m up)
                 y = (float(t) - feed.offset - 10.1) * 1.0
@@ -351,7 +351,7 @@ def test_runner_serves_truth_on_ptys_and_survives_a_lost_link() -> None:
                 ap.send(system_time(boot), simstate(0.0, 2.0, math.radians(90.0)))
                 runner.step(0.01)
             assert feed.samples == 30
-            later = [nmea.parse_sentence(line)[1] for line in hdt.read(10_000).splitlines()]
+            later = [read_sentence(line)[1] for line in hdt.read(10_000).splitlines()]
             assert later and all(abs(float(f[0]) - 90.0) < 1.5 for f in later[1:])
     finally:
         runner.close()
@@ -543,7 +543,7 @@ def test_instruments_beside_the_real_sitl_agree_with_its_simstate(real_sitl, tmp
     # distance from the SIMSTATE truth of that moment, within its noise.
     errors = []
     for _, line in read_at["ranges"]:
-        t, beacon, r = nmea.parse_sentence(line)[1]
+        t, beacon, r = read_sentence(line)[1]
         boot_s = float(t) - offset
         if boot_s > xy[-1][0]:
             continue   # measured after the operator's last SIMSTATE
@@ -564,7 +564,7 @@ def test_instruments_beside_the_real_sitl_agree_with_its_simstate(real_sitl, tmp
     for _, line in read_at["nmea_gps"]:
         if not line.startswith(b"$GPGGA"):
             continue
-        f = nmea.parse_sentence(line)[1]
+        f = read_sentence(line)[1]
         of_day = int(f[0][:2]) * 3600 + int(f[0][2:4]) * 60 + float(f[0][4:])
         boot_s = (of_day - utc0) % 86400.0
         if boot_s > xy[-1][0]:
@@ -581,7 +581,7 @@ def test_instruments_beside_the_real_sitl_agree_with_its_simstate(real_sitl, tmp
     # (multiples of 0.1 s of boot + offset). Read latency (×10 under --speedup 10, and the
     # machine is shared) only bounds where the first slot is: of the grid points it may be,
     # the best must put every heading on the SIMSTATE truth within the sensor's 0.3° noise.
-    headings = [float(nmea.parse_sentence(line)[1][0]) for _, line in read_at["heading"]]
+    headings = [float(read_sentence(line)[1][0]) for _, line in read_at["heading"]]
     assert len(headings) >= 200               # 10 Hz for 25 s
     latest = min(b / 1000 - 0.1 * i for i, (b, _) in enumerate(read_at["heading"]))
     top = latest - (latest + offset) % 0.1      # the last slot not after ``latest``

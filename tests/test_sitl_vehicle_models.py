@@ -21,7 +21,7 @@ from sitl_rig import Rig, command
 from mavhelm.sitl import runner
 from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
 from mavhelm.sitl.boat import SimEnvironment
-from mavhelm.sitl.models import LEGACY_MODELS, MODELS, find_model, legacy_model
+from mavhelm.sitl.models import DEFAULT_MODEL, HULL_MODELS, MODELS, SITL_MODELS, get_model
 from mavhelm.sitl.simulator import DT
 
 M = mavlink
@@ -45,11 +45,11 @@ def _override(c, steer: int, throttle: int) -> None:
     c.mav.rc_channels_override_send(1, 1, steer, 0, throttle, 0, 0, 0, 0, 0)
 
 
-@pytest.mark.parametrize("name", list(MODELS) + [m.name for m in LEGACY_MODELS.values()])
+@pytest.mark.parametrize("name", list(MODELS))
 def test_each_model_steps_through_the_simulator(name):
     """Armed in MANUAL with the throttle stick up and a little steering, the simulated vehicle
     moves exactly as its model does from the same servo outputs."""
-    model = find_model(name)
+    model = get_model(name)
     r = Rig(model=name)
     try:
         c = r.connect(sysid=255)
@@ -86,23 +86,21 @@ def test_each_model_steps_through_the_simulator(name):
 
 
 def test_model_names_and_aliases():
-    r = Rig(vehicle="boat", variant="rudder", ports=(0,))
+    r = Rig(model="mavhelm-boat-rudder", ports=(0,))
     try:
-        assert r.sim.model is legacy_model("boat", "rudder")
-        assert (r.sim.vehicle, r.sim.variant) == ("boat", "rudder")
+        assert r.sim.model is HULL_MODELS["mavhelm-boat-rudder"]
+        assert (r.sim.vehicle, r.sim.model.skid) == ("boat", False)
     finally:
         r.close()
     r = Rig(ports=(0,))
     try:
-        assert r.sim.model.name == "mavhelm-boat"  # the default hull is unchanged
+        assert r.sim.model.name == DEFAULT_MODEL == "mavhelm-boat"  # the default hull is unchanged
     finally:
         r.close()
-    with pytest.raises(ValueError, match="not both"):
-        Rig(model="motorboat", vehicle="boat")
     with pytest.raises(ValueError, match="unknown vehicle model 'boat'; known: motorboat"):
         Rig(model="boat")
-    with pytest.raises(ValueError, match="rover variant must be one of"):
-        Rig(vehicle="rover", variant="rudder")
+    with pytest.raises(ValueError, match="unknown vehicle model 'mavhelm-rover-rudder'"):
+        Rig(model="mavhelm-rover-rudder")
 
 
 def test_defaults_files_are_applied_over_the_parameter_table(tmp_path):
@@ -134,14 +132,14 @@ def test_sitl_models_start_from_ardupilot_defaults(tmp_path):
     """A SITL model's table starts, as the real SITL's, from ArduPilot's own defaults, with the
     files on top: the gains the stock files leave out are the firmware's (ATC_STR_RAT_P 0.2,
     not the 1.5 tuned to mavhelm's rudder hull). mavhelm's own hulls keep their tuned values."""
-    for name in MODELS:
+    for name in SITL_MODELS:
         r = Rig(model=name, ports=(0,))
         try:
             p = r.sim.params
             assert {k: p[k] for k in ARDUPILOT_DEFAULTS} == ARDUPILOT_DEFAULTS, name
             assert (p["SIM_WIND_T"], p["MOT_SLEWRATE"]) == (0.0, 100.0), name
             assert (p["SERVO1_FUNCTION"], p["SERVO3_FUNCTION"]) == \
-                find_model(name).servo_functions
+                get_model(name).servo_functions
         finally:
             r.close()
     r = Rig(model="motorboat", defaults=_stock(tmp_path))
@@ -153,10 +151,10 @@ def test_sitl_models_start_from_ardupilot_defaults(tmp_path):
         assert p["SIM_WIND_T"] == 1.0  # motorboat.parm's
     finally:
         r.close()
-    for vehicle, variant in LEGACY_MODELS:
-        r = Rig(vehicle=vehicle, variant=variant, ports=(0,))
+    for name, hull in HULL_MODELS.items():
+        r = Rig(model=name, ports=(0,))
         try:
-            own = default_params(vehicle == "boat", variant == "skid")
+            own = default_params(hull.vehicle == "boat", hull.skid)
             assert {k: r.sim.params[k] for k in ARDUPILOT_DEFAULTS} == \
                 {k: own[k] for k in ARDUPILOT_DEFAULTS}
             assert r.sim.params["ATC_STR_RAT_P"] != ARDUPILOT_DEFAULTS["ATC_STR_RAT_P"]
@@ -214,11 +212,10 @@ def _parse(*argv: str) -> argparse.Namespace:
 def test_runner_model_options(capsys, tmp_path):
     a = _parse("--model", "motorboat-skid", "--defaults", "a.parm,b.parm")
     assert (a.model, a.defaults) == ("motorboat-skid", "a.parm,b.parm")
-    assert _parse().model is None and _parse().defaults is None
-    with pytest.raises(SystemExit):
-        _parse("--model", "boat")
-    assert runner.run(_parse("--model", "rover", "--variant", "skid")) == 2
-    assert "--model replaces --vehicle/--variant" in capsys.readouterr().err
+    assert _parse().model == DEFAULT_MODEL and _parse().defaults is None
+    for argv in (("--model", "boat"), ("--vehicle", "rover"), ("--variant", "skid")):
+        with pytest.raises(SystemExit):
+            _parse(*argv)
     assert runner.run(_parse("--model", "rover", "--defaults",
                              str(tmp_path / "missing.parm"))) == 2
     assert "missing.parm: no such file" in capsys.readouterr().err

@@ -14,6 +14,7 @@ from pathlib import Path
 from mavhelm.core.mission import load_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.demo.report import Summary, format_summary, plot_run, summarize, write_track_csv
+from mavhelm.sitl.models import DEFAULT_MODEL
 
 DEFAULT_MISSION = Path(__file__).resolve().parents[2] / "examples" / "demo.moos"
 
@@ -36,8 +37,7 @@ def overall_timeout(mission) -> float:
 
 
 def run_demo(mission_path: str | Path = DEFAULT_MISSION, out_root: str | Path = "runs", *,
-             vehicle: str = "boat", variant: str | None = None, model: str | None = None,
-             defaults: str | None = None, fast_start: bool = False,
+             model: str = DEFAULT_MODEL, defaults: str | None = None, fast_start: bool = False,
              scenario=None, seed: int = 0, echo=print) -> DemoResult:
     mission = load_mission(mission_path)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -47,8 +47,8 @@ def run_demo(mission_path: str | Path = DEFAULT_MISSION, out_root: str | Path = 
         out_dir = Path(out_root) / f"{stamp}-{suffix}"
         suffix += 1
     out_dir.mkdir(parents=True)
-    echo(f"mission {mission_path}; simulated {model or vehicle}; logs in {out_dir}")
-    with SimulatedRun.start(mission, vehicle=vehicle, variant=variant, model=model,
+    echo(f"mission {mission_path}; simulated {model}; logs in {out_dir}")
+    with SimulatedRun.start(mission, model=model,
                             defaults=defaults, fast_start=fast_start,
                             scenario=scenario, seed=seed,
                             alog_path=out_dir / "mission.alog") as run:

@@ -20,6 +20,7 @@ from mavhelm.core.mission import Mission, load_mission
 from mavhelm.demo.groundstation import GroundStation, Operator
 from mavhelm.sitl import flat_earth
 from mavhelm.sitl.lockstep import Lockstep
+from mavhelm.sitl.models import DEFAULT_MODEL
 from mavhelm.sitl.simulator import Simulator
 from mavhelm.sitl.truth import Truth
 
@@ -48,23 +49,20 @@ class SimulatedRun:
     ended_at: float | None = None
 
     @classmethod
-    def start(cls, mission: Mission | str | Path, *, vehicle: str = "boat",
-              variant: str | None = None, model: str | None = None,
+    def start(cls, mission: Mission | str | Path, *, model: str = DEFAULT_MODEL,
               defaults: str | None = None, fast_start: bool = True, scenario=None,
               seed: int = 0, alog_path: str | Path | None = None,
               start_heading: float = 0.0, params: dict[str, float] | None = None,
               record: Iterable[str] = (), operator_mode: str = "GUIDED",
               serial_sensors: Iterable = ()) -> SimulatedRun:
         """``serial_sensors``: the simulator's instrument ports (ptys the mission's iSerial
-        blocks read), updated every simulator step. ``model`` (an ArduPilot SITL name such as
-        ``motorboat``) replaces ``vehicle``/``variant``; ``defaults`` are ``.parm`` files."""
+        blocks read), updated every simulator step. ``model``: a name of the model registry
+        (``sitl.models.MODELS``); ``defaults`` are ``.parm`` files."""
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
         clock = SimClock(0.0)
         origin = mission_origin(mission)
-        chosen = ({"model": model} if model is not None
-                  else {"vehicle": vehicle, "variant": variant})
-        sim = Simulator(clock, **chosen, defaults=defaults, ports=(0, 0, 0),
+        sim = Simulator(clock, model=model, defaults=defaults, ports=(0, 0, 0),
                         home=flat_earth.Origin(origin.lat, origin.lon),
                         start_heading=start_heading,
                         fast_start=fast_start, scenario=scenario, seed=seed, params=params,

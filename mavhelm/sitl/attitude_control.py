@@ -65,6 +65,9 @@ class AttitudeControl:
         # held the throttle back, it is at MOT_THR_MAX, or disarmed): the speed integrator may
         # then only shrink (AC_PID::update_i), as get_throttle_out_speed passes it
         self.motor_limit = False
+        # AP_MotorsUGV limit.steer_left || steer_right from the last output (too slow to steer,
+        # or full deflection): the steering integrator may then only shrink
+        self.steer_limit = False
 
     def reset_pids(self) -> None:
         self.rate_pid.reset()
@@ -99,9 +102,11 @@ class AttitudeControl:
         self.rate_target = rate
         err = (rate - est_rate) * _DEG
         pid = self.rate_pid
-        imax = p["ATC_STR_RAT_IMAX"]
-        integ = pid.integ + err * p["ATC_STR_RAT_I"] * dt
-        pid.integ = integ = -imax if integ < -imax else imax if integ > imax else integ
+        integ = pid.integ
+        if not self.steer_limit or (integ > 0.0 > err) or (integ < 0.0 < err):
+            imax = p["ATC_STR_RAT_IMAX"]
+            integ += err * p["ATC_STR_RAT_I"] * dt
+            pid.integ = integ = -imax if integ < -imax else imax if integ > imax else integ
         out = rate * _DEG * p["ATC_STR_RAT_FF"] + err * p["ATC_STR_RAT_P"] + integ
         return -1.0 if out < -1.0 else 1.0 if out > 1.0 else out
 

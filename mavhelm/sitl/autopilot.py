@@ -150,14 +150,16 @@ class Estimate:
 # with an empty --defaults file, for the names of default_params() whose value there differs:
 # the table below is mavhelm's hulls' (rover.parm's navigation values, controller terms tuned to
 # those hulls). AR_AttitudeControl.cpp: AR_ATTCONTROL_STEER_RATE_FF/P/I 0.2, IMAX 1.0;
-# AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; Rover/Parameters.cpp: CRUISE_SPEED 2,
-# CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2. Not here, because the model decides
-# them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and its outputs; the stock files set
-# them). tests/test_sitl_vehicle_models.py reads every name back from the real binary.
+# AR_ATTCONTROL_THR_SPEED_P/I 0.2, IMAX 1.0; AP_MotorsUGV.cpp: MOT_SPD_SCA_BASE 1;
+# Rover/Parameters.cpp: CRUISE_SPEED 2, CRUISE_THROTTLE 50; AR_WPNav: WP_SPEED 2, WP_RADIUS 2.
+# Not here, because the model decides them: FRAME_CLASS and SERVO1/3_FUNCTION (the vehicle and
+# its outputs; the stock files set them). tests/test_sitl_vehicle_models.py reads every name back
+# from the real binary.
 ARDUPILOT_DEFAULTS: dict[str, float] = {
     "ATC_STR_RAT_FF": 0.2, "ATC_STR_RAT_P": 0.2, "ATC_STR_RAT_I": 0.2, "ATC_STR_RAT_IMAX": 1.0,
     "ATC_SPEED_P": 0.2, "ATC_SPEED_I": 0.2, "ATC_SPEED_IMAX": 1.0,
     "CRUISE_SPEED": 2.0, "CRUISE_THROTTLE": 50.0, "WP_SPEED": 2.0, "WP_RADIUS": 2.0,
+    "MOT_SPD_SCA_BASE": 1.0,
 }
 
 
@@ -165,7 +167,7 @@ def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, 
     """The parameter table: the names and values the real Rover 4.8-dev SITL answers with its
     stock rover.parm (WP_SPEED 5, CRUISE_SPEED 5, WP_RADIUS 3, ATC_STR_RAT_FF 0.75, ATC_SPEED_P
     0.1), except a few controller terms tuned to the simulator's hulls (docs/sim-differences.md).
-    Names are 4.8's: MAV_SYSID (was SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
+    Names are 4.8's: MAV_SYSID (older firmware: SYSID_THISMAV), GPS1_*, ARMING_SKIPCHK; there is no
     GUID_TIMEOUT.
 
     ``firmware``: the same names with ArduPilot's own defaults (ARDUPILOT_DEFAULTS), for the
@@ -191,6 +193,8 @@ def default_params(boat: bool, skid: bool, firmware: bool = False) -> dict[str, 
         "ATC_SPEED_IMAX": 0.5,
         "ATC_ACCEL_MAX": 1.0, "ATC_DECEL_MAX": 0.0, "ATC_STOP_SPEED": 0.1,
         "MOT_THR_MAX": 100.0, "MOT_THR_MIN": 0.0, "MOT_STR_THR_MIX": 0.5, "MOT_SLEWRATE": 100.0,
+        # mavhelm's hulls were tuned without steering speed scaling (motors.steering_output)
+        "MOT_SPD_SCA_BASE": 0.0,
         "GPS1_TYPE": 1, "GPS1_RATE_MS": 200, "EK3_SRC1_POSXY": 3,
     }
     if boat and not skid:  # a rudder needs flow: more gain on the rate error
@@ -304,20 +308,36 @@ class Autopilot:
             return  # the sequence is over: nothing below can fire again
         up = self.uptime(now)
         if not self._initialised and up >= self.timeline.initialised:
-            self._initialised = True
-            initial = int(self.params.get("INITIAL_MODE", 0))
-            chosen = initial if initial in MODES and initial != INITIALISING else MANUAL
-            # INITIAL_MODE is not checked: the mode is prepared and entered as it is
-            self.modes[chosen]._start()
-            self._switch(self.modes[chosen])
-        if self.home is None and up >= self.timeline.gps_fix and self.gps_has_fix:
+            self._initialise()
+        self._gps_events(up)
+        self._say_boot_texts(up)
+        self._boot_done = (self._initialised and "gps" in self._announced
+                           and self._boot_text >= len(BOOT_TEXTS))
+
+    def _initialise(self) -> None:
+        """Initialisation done: enter INITIAL_MODE (MANUAL if it names no mode)."""
+        self._initialised = True
+        initial = int(self.params.get("INITIAL_MODE", 0))
+        chosen = initial if initial in MODES and initial != INITIALISING else MANUAL
+        # INITIAL_MODE is not checked: the mode is prepared and entered as it is
+        self.modes[chosen]._start()
+        self._switch(self.modes[chosen])
+
+    def _gps_events(self, up: float) -> None:
+        """Home at the first fix, then the EKF origin, then the EKF using GPS, each at its
+        time on the timeline."""
+        fix = self.gps_has_fix
+        if self.home is None and up >= self.timeline.gps_fix and fix:
             self.home = (self.est.x, self.est.y)  # AP_GPS's first fix sets home
             self._announced.add("home")
-        if self.ekf_origin is None and up >= self.timeline.ekf_origin and self.gps_has_fix:
+        if self.ekf_origin is None and up >= self.timeline.ekf_origin and fix:
             self.ekf_origin = (self.est.x, self.est.y)
             self._announced.add("origin")
-        if "gps" not in self._announced and up >= self.timeline.ekf_gps and self.gps_has_fix:
+        if "gps" not in self._announced and up >= self.timeline.ekf_gps and fix:
             self._announced.add("gps")
+
+    def _say_boot_texts(self, up: float) -> None:
+        """The boot texts in order: each at its time, or once its event has happened."""
         while self._boot_text < len(BOOT_TEXTS):
             b = BOOT_TEXTS[self._boot_text]
             if b.event is not None:
@@ -331,8 +351,6 @@ class Autopilot:
                 text = text.format(lat=lat, lon=lon)
             self.text(b.severity, text)
             self._boot_text += 1
-        self._boot_done = (self._initialised and "gps" in self._announced
-                           and self._boot_text >= len(BOOT_TEXTS))
 
     # ------------------------------------------------------------------ modes
     def base_mode(self) -> int:
@@ -446,40 +464,49 @@ class Autopilot:
         """
         if self.mode != GUIDED:
             return
-        pos_ignore = (type_mask & POS_IGNORE) == POS_IGNORE
-        vel_ignore = (type_mask & VEL_IGNORE) == VEL_IGNORE
-        acc_ignore = (type_mask & ACC_IGNORE) == ACC_IGNORE
-        yaw_ignore = bool(type_mask & YAW_IGNORE)
-        rate_ignore = bool(type_mask & YAW_RATE_IGNORE)
-        if not acc_ignore:
+        if (type_mask & ACC_IGNORE) != ACC_IGNORE:
             # GCS_MAVLINK_Rover::send_acc_ignore_must_be_set_message
             self.text(SEVERITY_INFO, f"Ignoring {message}; set ACC_IGNORE in mask")
             return
-        speed = 0.0
-        heading = 0.0
-        if not vel_ignore:
-            limit = self.params["WP_SPEED"]
-            speed = clamp(math.hypot(vx, vy), -limit, limit)
-            heading = math.degrees(math.atan2(vy, vx))
-            if frame == "body":
-                heading += self.est.heading
+        pos_ignore = (type_mask & POS_IGNORE) == POS_IGNORE
+        vel_ignore = (type_mask & VEL_IGNORE) == VEL_IGNORE
+        yaw_ignore = bool(type_mask & YAW_IGNORE)
+        rate_ignore = bool(type_mask & YAW_RATE_IGNORE)
+        if not pos_ignore and x is not None and y is not None:
+            self.guided.set_desired_location(x, y)
+            return
+        speed, heading = (0.0, 0.0) if vel_ignore else self._velocity_target(vx, vy, frame)
         if not yaw_ignore:
             heading = math.degrees(yaw) + (self.est.heading if frame == "body" else 0.0)
         rate = 0.0 if rate_ignore else math.degrees(yaw_rate)
-        direction = -1.0 if (not vel_ignore and (not yaw_ignore or not rate_ignore)
-                             and vx < 0) else 1.0
+        if not vel_ignore and (not yaw_ignore or not rate_ignore) and vx < 0:
+            speed = -speed
+        self._guided_velocity_target(vel_ignore, yaw_ignore, rate_ignore, heading, rate, speed,
+                                     now)
+
+    def _velocity_target(self, vx: float, vy: float, frame: str) -> tuple[float, float]:
+        """(speed, heading in degrees) of a velocity target: the speed within WP_SPEED."""
+        limit = self.params["WP_SPEED"]
+        speed = clamp(math.hypot(vx, vy), -limit, limit)
+        heading = math.degrees(math.atan2(vy, vx))
+        if frame == "body":
+            heading += self.est.heading
+        return speed, heading
+
+    def _guided_velocity_target(self, vel_ignore: bool, yaw_ignore: bool, rate_ignore: bool,
+                                heading: float, rate: float, speed: float, now: float) -> None:
+        """GCS_MAVLINK_Rover's choice of GUIDED sub-mode by what the mask leaves: a velocity
+        with a heading (from the velocity itself or given) or with a turn rate, or a heading
+        or turn rate alone at zero speed."""
         g = self.guided
-        if not pos_ignore and x is not None and y is not None:
-            g.set_desired_location(x, y)
-        elif not vel_ignore and yaw_ignore and rate_ignore:
-            g.set_desired_heading_and_speed(heading, direction * speed, now)
-        elif not vel_ignore and yaw_ignore and not rate_ignore:
-            g.set_desired_turn_rate_and_speed(rate, direction * speed, now)
-        elif not vel_ignore and not yaw_ignore and rate_ignore:
-            g.set_desired_heading_and_speed(heading, direction * speed, now)
-        elif vel_ignore and not yaw_ignore and rate_ignore:
+        if not vel_ignore:
+            if yaw_ignore and not rate_ignore:
+                g.set_desired_turn_rate_and_speed(rate, speed, now)
+            elif yaw_ignore or rate_ignore:  # not both a heading and a turn rate
+                g.set_desired_heading_and_speed(heading, speed, now)
+        elif not yaw_ignore and rate_ignore:
             g.set_desired_heading_and_speed(heading, 0.0, now)
-        elif vel_ignore and yaw_ignore and not rate_ignore:
+        elif yaw_ignore and not rate_ignore:
             g.set_desired_turn_rate_and_speed(rate, 0.0, now)
 
     def guided_reposition(self, x: float, y: float, speed: float, change_mode: bool,
@@ -570,4 +597,7 @@ class Autopilot:
         out = m.output(self.steering, self.throttle, self.armed, dt)
         if self.armed:
             self.throttle = out
+        self.steering = m.steering_output(self.steering, self.est.forward_speed, self.armed,
+                                          self.current.scales_steering)
         self.atc.motor_limit = m.limit_lower or m.limit_upper
+        self.atc.steer_limit = m.limit_steer

@@ -155,7 +155,7 @@ class SimEnvironment:
     SITL); ``motorboat.parm`` sets SIM_WIND_SPD 3, SIM_WIND_T 1 and SIM_WAVE_ENABLE 1.
 
     SIM_DEPTH is mavhelm's own (the echo sounder's seabed), and so is SIM_CURRENT_SPD/DIR, the
-    water current of mavhelm's own hulls (models.LEGACY_MODELS). ``armed``: the SITL moves the hull
+    water current of mavhelm's own hulls (models.HULL_MODELS). ``armed``: the SITL moves the hull
     with the tide and rocks it on the waves only while the vehicle is armed."""
 
     SIM_WIND_SPD: float = 0.0  # m/s

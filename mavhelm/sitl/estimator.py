@@ -201,13 +201,8 @@ class Estimator:
                 est.vx, est.vy = vx, vy
             else:
                 est.vx, est.vy = g.vx, g.vy
-        else:  # dead reckoning along the believed heading
-            h = math.radians(est.heading)
-            if sway is not None:
-                est.vx = surge * math.sin(h) + sway * math.cos(h)
-                est.vy = surge * math.cos(h) - sway * math.sin(h)
-            else:
-                est.vx, est.vy = surge * math.sin(h), surge * math.cos(h)
+        else:
+            self._dead_reckon(est, surge, sway)
         if not have_origin:
             # before the origin the EKF sits at the first fix (const-position mode)
             if g is not None and g.fix >= 3:
@@ -217,24 +212,38 @@ class Estimator:
         est.x += est.vx * dt
         est.y += est.vy * dt
         if fresh and g is not None:
-            ix, iy = g.x - est.x, g.y - est.y
-            if was_lost:
-                # the filter had given up on position: it resets onto the first new fix
-                est.x, est.y = g.x, g.y
-                self.glitch_since = None
-            elif math.hypot(ix, iy) > GLITCH_GATE:
-                # innovation gate: a glitching GPS is ignored, then the EKF resets onto it
-                if self.glitch_since is None:
-                    self.glitch_since = t
-                if t - self.glitch_since > GLITCH_RESET:
-                    est.x, est.y = g.x, g.y
-                    self.glitch_since = None
-            else:
-                self.glitch_since = None
-                est.x += FIX_GAIN * ix
-                est.y += FIX_GAIN * iy
+            self._correct(est, g, t, was_lost)
         dr_ok = self.last_fix_t is not None and t - self.last_fix_t < dr_time
         est.position_ok = using_gps and dr_ok
+
+    @staticmethod
+    def _dead_reckon(est: Estimate, surge: float, sway: float | None) -> None:
+        """The velocity without a recent fix: the body speeds along the believed heading."""
+        h = math.radians(est.heading)
+        if sway is not None:
+            est.vx = surge * math.sin(h) + sway * math.cos(h)
+            est.vy = surge * math.cos(h) - sway * math.sin(h)
+        else:
+            est.vx, est.vy = surge * math.sin(h), surge * math.cos(h)
+
+    def _correct(self, est: Estimate, g: GpsSample, t: float, was_lost: bool) -> None:
+        """A fresh fix pulls the position towards it, through the innovation gate."""
+        ix, iy = g.x - est.x, g.y - est.y
+        if was_lost:
+            # the filter had given up on position: it resets onto the first new fix
+            est.x, est.y = g.x, g.y
+            self.glitch_since = None
+        elif math.hypot(ix, iy) > GLITCH_GATE:
+            # innovation gate: a glitching GPS is ignored, then the EKF resets onto it
+            if self.glitch_since is None:
+                self.glitch_since = t
+            if t - self.glitch_since > GLITCH_RESET:
+                est.x, est.y = g.x, g.y
+                self.glitch_since = None
+        else:
+            self.glitch_since = None
+            est.x += FIX_GAIN * ix
+            est.y += FIX_GAIN * iy
 
     def ekf_flags(self, t: float, est: Estimate, gps_has_fix: bool) -> tuple[int, float]:
         """EKF_STATUS_REPORT (flags, position variance) at t, as a companion's checks see it."""

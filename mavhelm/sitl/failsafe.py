@@ -36,11 +36,7 @@ class Failsafe:
 
     def check_gcs(self, now: float) -> None:
         """Rover::failsafe_gcs_check and failsafe_trigger, once per control-loop pass."""
-        if not self.ap.params.get("FS_GCS_ENABLE", 0) or self.gcs_last_seen is None:
-            on = False
-        else:
-            on = now - self.gcs_last_seen > self.ap.params.get("FS_GCS_TIMEOUT", 5.0)
-        if not on:
+        if not self._gcs_lost(now):
             self.bits = 0
             if self.triggered:
                 self.ap.text(SEVERITY_INFO, "GCS Failsafe Cleared")
@@ -49,36 +45,50 @@ class Failsafe:
         if not self.bits:
             self.bits = 1
             self.start = now
-        in_hold_ok = self.ap.mode != HOLD or int(self.ap.params.get("FS_OPTIONS", 0)) & 1
+        params = self.ap.params
+        in_hold_ok = self.ap.mode != HOLD or int(params.get("FS_OPTIONS", 0)) & 1
         if (not self.triggered
-                and now - self.start > self.ap.params.get("FS_TIMEOUT", 1.5)
+                and now - self.start > params.get("FS_TIMEOUT", 1.5)
                 and self.ap.mode != RTL and in_hold_ok):
-            self.triggered = self.bits
-            # Rover::failsafe_trigger names whichever check first sees FS_TIMEOUT pass; with
-            # FS_THR_ENABLE on (the default) the radio check runs every loop and is nearly
-            # always first, so a GCS failsafe is announced as "Radio Failsafe" (measured). The
-            # radio itself never fails here (the simulated receiver is always valid).
-            who = "Radio" if int(self.ap.params.get("FS_THR_ENABLE", 0)) else "GCS"
-            self.ap.text(SEVERITY_WARNING, f"{who} Failsafe")
-            self.ap.rc.clear_overrides()
-            if self.ap.mode == AUTO and int(self.ap.params["FS_GCS_ENABLE"]) == 2:
-                self.ap.text(SEVERITY_WARNING, "Failsafe - Continuing Auto Mode")
-                return
-            # FS_ACTION: 0 nothing, 1 RTL, 2 Hold, 3 SmartRTL or RTL, 4 SmartRTL or Hold,
-            # 5 terminate (disarm), 6 Loiter or Hold; each falls back to Hold
-            action = int(self.ap.params.get("FS_ACTION", 2))
-            if action == 0:
-                return
-            if action == 5:
-                self.ap.arm(False, now)
-                return
-            if action == 6 and self.ap.set_mode(LOITER, now):
-                return
-            if action in (3, 4) and self.ap.set_mode(SMART_RTL, now):
-                return
-            if action in (1, 3) and self.ap.set_mode(RTL, now):
-                return
-            self.ap.set_mode(HOLD, now)
+            self._trigger(now)
+
+    def _gcs_lost(self, now: float) -> bool:
+        """FS_GCS_ENABLE on, a GCS heard once, and silent for more than FS_GCS_TIMEOUT."""
+        params = self.ap.params
+        if not params.get("FS_GCS_ENABLE", 0) or self.gcs_last_seen is None:
+            return False
+        return now - self.gcs_last_seen > params.get("FS_GCS_TIMEOUT", 5.0)
+
+    def _trigger(self, now: float) -> None:
+        """Rover::failsafe_trigger: announce, drop the RC overrides, then FS_ACTION."""
+        self.triggered = self.bits
+        # Rover::failsafe_trigger names whichever check first sees FS_TIMEOUT pass; with
+        # FS_THR_ENABLE on (the default) the radio check runs every loop and is nearly
+        # always first, so a GCS failsafe is announced as "Radio Failsafe" (measured). The
+        # radio itself never fails here (the simulated receiver is always valid).
+        who = "Radio" if int(self.ap.params.get("FS_THR_ENABLE", 0)) else "GCS"
+        self.ap.text(SEVERITY_WARNING, f"{who} Failsafe")
+        self.ap.rc.clear_overrides()
+        if self.ap.mode == AUTO and int(self.ap.params["FS_GCS_ENABLE"]) == 2:
+            self.ap.text(SEVERITY_WARNING, "Failsafe - Continuing Auto Mode")
+            return
+        self._action(int(self.ap.params.get("FS_ACTION", 2)), now)
+
+    def _action(self, action: int, now: float) -> None:
+        """FS_ACTION: 0 nothing, 1 RTL, 2 Hold, 3 SmartRTL or RTL, 4 SmartRTL or Hold,
+        5 terminate (disarm), 6 Loiter or Hold; each falls back to Hold."""
+        if action == 0:
+            return
+        if action == 5:
+            self.ap.arm(False, now)
+            return
+        if action == 6 and self.ap.set_mode(LOITER, now):
+            return
+        if action in (3, 4) and self.ap.set_mode(SMART_RTL, now):
+            return
+        if action in (1, 3) and self.ap.set_mode(RTL, now):
+            return
+        self.ap.set_mode(HOLD, now)
 
     def check_ekf(self, now: float, dt: float) -> None:
         """Rover's ekf_check: ~1 s without a usable position while armed → EKF failsafe

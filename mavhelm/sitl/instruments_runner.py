@@ -32,8 +32,15 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.core.backoff import Backoff
 from mavhelm.sitl.flat_earth import Origin
-from mavhelm.sitl.runner import describe_port, make_sensor_ports, parse_beacons
+from mavhelm.sitl.models import MODEL_NAMES, get_model
+from mavhelm.sitl.runner import (
+    describe_port,
+    make_sensor_ports,
+    parse_beacons,
+    positive_number,
+)
 from mavhelm.sitl.truth import Truth
 from mavhelm.sitl.truth_feed import (
     DEFAULT_RATE_HZ,
@@ -47,8 +54,6 @@ SOURCE_SYSTEM = 255
 SOURCE_COMPONENT = mavlink.MAV_COMP_ID_PERIPHERAL
 """Who the requests come from. The runner sends no heartbeat, so it never shows up as a
 vehicle or a ground station to the others on the SITL's links."""
-RETRY_FIRST_S = 0.5
-RETRY_MAX_S = 4.0
 REQUEST_AGAIN_S = 2.0
 """Wall seconds without truth after asking before asking again (a request made while the
 autopilot is still starting can be ignored)."""
@@ -156,8 +161,7 @@ class InstrumentsRunner:
         self.say = say
         self.wall = wall
         self.connected = False
-        self._retry_at = 0.0
-        self._retry_s = RETRY_FIRST_S
+        self._backoff = Backoff()  # the project's reconnect timing (1 s doubling to 8 s)
         self._waiting_said = False
         self._asked_at: float | None = None
         self._asks = 0
@@ -179,15 +183,14 @@ class InstrumentsRunner:
                 hint = (" (a real SITL opens 5762/5763 only once a client is on 5760)"
                         if exc.errno == errno.ECONNREFUSED else "")
                 self.say(f"{PREFIX} waiting for {self.link.where}: "
-                         f"{exc.strerror or exc}{hint}; retrying")
+                         f"{exc.strerror or exc}{hint}; {self._backoff.describe()}")
                 self._waiting_said = True
-            self._retry_at = now + self._retry_s
-            self._retry_s = min(RETRY_MAX_S, self._retry_s * 2)
+            self._backoff.failed(now)
             return
         self.connected = True
         self.connections += 1
         self._waiting_said = False
-        self._retry_s = RETRY_FIRST_S
+        self._backoff.succeeded()
         self._asked_at = None
         self._asks = 0
         self._heard_at = now
@@ -199,7 +202,7 @@ class InstrumentsRunner:
     def _lost(self, now: float, why: str) -> None:
         self.link.close()
         self.connected = False
-        self._retry_at = now + RETRY_FIRST_S
+        self._backoff.failed(now)
         self.say(f"{PREFIX} lost {self.link.where}: {why}; retrying")
 
     def _ask(self, now: float) -> None:
@@ -214,10 +217,10 @@ class InstrumentsRunner:
     def step(self, timeout_s: float = 0.05) -> list[Truth]:
         now = self.wall()
         if not self.connected:
-            if now >= self._retry_at:
+            if self._backoff.due(now):
                 self._connect(now)
             if not self.connected:
-                time.sleep(min(timeout_s, max(0.0, self._retry_at - now)))
+                time.sleep(min(timeout_s, self._backoff.wait_s(now)))
                 return []
         try:
             msgs, closed = self.link.read(timeout_s)
@@ -277,9 +280,9 @@ class InstrumentsRunner:
         self._last_t = truth.t
         if not self._announced:
             self._announced = True
-            o = self.feed.origin
-            assert o is not None and self.feed.offset is not None
-            self.say(f"{PREFIX} truth from autopilot {self.feed.autopilot[0]} at "
+            o, autopilot = self.feed.origin, self.feed.autopilot
+            assert o is not None and self.feed.offset is not None and autopilot is not None
+            self.say(f"{PREFIX} truth from autopilot {autopilot[0]} at "
                      f"{self.rate_hz:g} Hz; time stamps = autopilot boot s + "
                      f"{self.feed.offset:.3f}; origin {o.lat:.7f},{o.lon:.7f}")
         if self.feed.samples >= 5 and self.feed.velocity_source != self._velocity_said:
@@ -324,11 +327,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "turn-around s), as for mavhelm sim")
     parser.add_argument("--ranging", choices=("acoustic", "radio"), default="acoustic",
                         help="with --beacons: acoustic LBL (default) or radio ranges")
-    parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat",
-                        help="boat: echo sounder + DVL; rover: wheel odometry, no sounder")
-    parser.add_argument("--water-depth", type=float, default=20.0,
+    parser.add_argument("--model", choices=MODEL_NAMES, default="motorboat", metavar="NAME",
+                        help="the vehicle model, as the SITL's --model (default motorboat): a "
+                             "boat gets echo sounder + DVL, a rover wheel odometry, no sounder")
+    parser.add_argument("--water-depth", type=positive_number, default=20.0,
                         help="the seabed's depth below the surface, m (default 20)")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ,
+    parser.add_argument("--rate", type=positive_number, default=DEFAULT_RATE_HZ,
                         help="truth samples per autopilot second (default 10)")
     parser.add_argument("--scenario", default=None,
                         help="fault scenario file (.scn); its windows are autopilot seconds")
@@ -340,9 +344,7 @@ def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C. Returns the process exit status."""
     from mavhelm.sitl.faults import Scenario, ScenarioError
 
-    if args.rate <= 0:
-        print(f"{PREFIX} --rate must be positive", file=sys.stderr)
-        return 2
+    vehicle = get_model(args.model).vehicle
     try:
         scenario = Scenario.from_file(args.scenario) if args.scenario else Scenario()
     except ScenarioError as exc:
@@ -367,7 +369,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         # Built before the origin is known (the first SIMSTATE may give it): the GPS's origin
         # is set with every sample, so a placeholder here is never used.
-        ports = make_sensor_ports(args.vehicle, origin or Origin(0.0, 0.0), scenario,
+        ports = make_sensor_ports(vehicle, origin or Origin(0.0, 0.0), scenario,
                                   args.beacons, args.ranging, epoch=None)
     except OSError as exc:
         print(f"{PREFIX} cannot open a pseudo-terminal: {exc}", file=sys.stderr)
@@ -376,7 +378,7 @@ def run(args: argparse.Namespace) -> int:
     runner = InstrumentsRunner(TruthLink(host, port), ports, feed, rate_hz=args.rate,
                                say=lambda text: print(text, flush=True))
     try:
-        print(f"{PREFIX} {args.vehicle} instruments, truth from tcp:{host}:{port}"
+        print(f"{PREFIX} {vehicle} instruments, truth from tcp:{host}:{port}"
               + (f", origin {origin.lat:.7f},{origin.lon:.7f}" if origin else ""), flush=True)
         for p in ports:
             print(f"{PREFIX} {describe_port(p)}", flush=True)

@@ -182,6 +182,7 @@ class Link:
             self._held.append(pkt)
             return
         rng = self._rng
+        assert rng is not None  # faults are active only with a scenario
         if "link_garbage" in a and rng.random() < float(a["link_garbage"].params.get("prob", 0.1)):
             n = int(rng.integers(1, 16))
             self._queue(rng.integers(0, 256, n, dtype="uint8").tobytes())

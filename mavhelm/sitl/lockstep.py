@@ -25,11 +25,14 @@ import termios
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from pymavlink import mavutil
 
 from mavhelm.core.clock import SimClock
+
+if TYPE_CHECKING:
+    from mavhelm.sitl.links import Link
 
 STALL_ENV = "MAVHELM_LOCKSTEP_STALL_S"
 DEFAULT_STALL_S = 5.0
@@ -92,7 +95,7 @@ class MavfileEndpoint:
 class Peer:
     end: Endpoint
     tick: Callable[[float], None]
-    link: object | None = None
+    link: Link | None = None  # the simulator's side, once it has accepted
 
 
 class Lockstep:
@@ -143,6 +146,7 @@ class Lockstep:
 
     def _deliver_to_peer(self, peer: Peer) -> None:
         link, end = peer.link, peer.end
+        assert link is not None
         if end.bytes_received() >= link.bytes_sent:
             return  # nothing new was sent (a quiet link, most steps): no FIONREAD
         sock = end.socket()
@@ -151,6 +155,7 @@ class Lockstep:
 
     def _deliver_to_sim(self, peer: Peer) -> None:
         link, end = peer.link, peer.end
+        assert link is not None
         if link.bytes_received >= end.bytes_sent():
             return
         self._wait(lambda: link.bytes_received + pending_bytes(link.sock) >= end.bytes_sent(),

@@ -1,5 +1,7 @@
-"""The vehicle models by ArduPilot's SITL names: ``motorboat``, ``motorboat-skid``, ``rover``,
-``rover-skid`` (``--model`` of the real binary), each behind one interface.
+"""The vehicle models, one registry by name (``--model``): ArduPilot's SITL models
+(``motorboat``, ``motorboat-skid``, ``rover``, ``rover-skid``, as the real binary's ``--model``)
+and mavhelm's own hulls (``mavhelm-boat``, the default, ``mavhelm-boat-rudder``,
+``mavhelm-rover``, ``mavhelm-rover-skid``), each behind one interface.
 
 A caller (the simulator) picks a model by name and never asks what kind it is: the model says
 which stock ``.parm`` files the real SITL is started with, which servo functions it expects on
@@ -147,7 +149,7 @@ SITL_ROVER_SKID = rover.RoverParams(
     variant="skid", max_speed=4.0, max_reverse=4.0, speed_tau=4.0 / 14.0,
     max_turn_rate=math.radians(280.0), turn_tau=0.0)
 
-MODELS: dict[str, VehicleModel] = {
+SITL_MODELS: dict[str, VehicleModel] = {
     "motorboat": VehicleModel(
         "motorboat", "boat", MAV_TYPE_SURFACE_BOAT, boat.SitlBoatParams(skid=False),
         ("rover.parm", "motorboat.parm"), (FN_STEERING, FN_THROTTLE),
@@ -171,40 +173,31 @@ MODELS: dict[str, VehicleModel] = {
 }
 
 
-def get_model(name: str) -> VehicleModel:
-    """The model ArduPilot's SITL calls ``name``; ValueError naming the known ones otherwise."""
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise ValueError(f"unknown vehicle model {name!r}; known: "
-                         f"{', '.join(sorted(MODELS))}") from None
-
-
 # ---------------------------------------------------------------------------------------------
-# mavhelm's own hulls, older than the registry: a BlueBoat-like 3-DOF boat (twin thrusters or
-# rudder) and a small rover (Ackermann or skid). They are slower and more boat-like than the
-# SITL toys above, and every existing test, the demo and ``--vehicle/--variant`` still use them,
-# so they stay behind the same interface. Unlike the SITL models they read their outputs through
-# SERVOn_FUNCTION/MIN/MAX/TRIM/REVERSED, and move with mavhelm's SIM_CURRENT_SPD/DIR current
-# and a leeway of 3 % of the wind (no tide, no waves).
+# mavhelm's own hulls: a BlueBoat-like 3-DOF boat (twin thrusters or rudder) and a small rover
+# (Ackermann or skid). They are slower and more boat-like than the SITL toys above; the demo and
+# most tests run them, so the default model is one of them. Unlike the SITL models they read
+# their outputs through SERVOn_FUNCTION/MIN/MAX/TRIM/REVERSED, and move with mavhelm's
+# SIM_CURRENT_SPD/DIR current and a leeway of 3 % of the wind (no tide, no waves).
 # ---------------------------------------------------------------------------------------------
 
 
-_last_legacy: tuple[SimEnvironment, boat.Environment] | None = None
+_last_hull: tuple[SimEnvironment, boat.Environment] | None = None
 
 
-def legacy_environment(env: SimEnvironment) -> boat.Environment:
+def hull_environment(env: SimEnvironment) -> boat.Environment:
     """mavhelm's environment for its own hulls, from the same parameter table. Asked for
     several times a physics step with the same (immutable) environment, so the last answer
     is kept (by identity: cheaper than hashing the environment)."""
-    global _last_legacy
-    last = _last_legacy
+    global _last_hull
+    last = _last_hull
     if last is None or last[0] is not env:
         cs, cd = env.SIM_CURRENT_SPD, math.radians(env.SIM_CURRENT_DIR)
-        legacy = boat.Environment(current_east=cs * math.sin(cd),
-                                  current_north=cs * math.cos(cd), wind_speed=env.SIM_WIND_SPD,
-                                  wind_from=env.SIM_WIND_DIR, water_depth=env.SIM_DEPTH)
-        last = _last_legacy = (env, legacy)
+        hull_env = boat.Environment(current_east=cs * math.sin(cd),
+                                    current_north=cs * math.cos(cd),
+                                    wind_speed=env.SIM_WIND_SPD, wind_from=env.SIM_WIND_DIR,
+                                    water_depth=env.SIM_DEPTH)
+        last = _last_hull = (env, hull_env)
     return last[1]
 
 
@@ -231,78 +224,63 @@ def _by_function(skid: bool) -> Callable[[Sequence[int], ServoMap], tuple[float,
     return inputs
 
 
-def _legacy_boat_step(state: boat.BoatState, inputs: tuple[float, float], env: SimEnvironment,
-                      dt: float, p: boat.BoatParams) -> boat.BoatState:
-    return boat.step(state, inputs, legacy_environment(env), dt, p)
+def _hull_boat_step(state: boat.BoatState, inputs: tuple[float, float], env: SimEnvironment,
+                    dt: float, p: boat.BoatParams) -> boat.BoatState:
+    return boat.step(state, inputs, hull_environment(env), dt, p)
 
 
-def _legacy_boat_truth(state: boat.BoatState, t: float, env: SimEnvironment,
-                       p: boat.BoatParams) -> Truth:
-    return boat.truth(state, t, legacy_environment(env), p)
+def _hull_boat_truth(state: boat.BoatState, t: float, env: SimEnvironment,
+                     p: boat.BoatParams) -> Truth:
+    return boat.truth(state, t, hull_environment(env), p)
 
 
-def _legacy_boat_motion(state: boat.BoatState, env: SimEnvironment, p: boat.BoatParams) -> Motion:
+def _hull_boat_motion(state: boat.BoatState, env: SimEnvironment, p: boat.BoatParams) -> Motion:
     s, c = math.sin(state.heading), math.cos(state.heading)
-    ce, cn = legacy_environment(env).drift(p.leeway)
+    ce, cn = hull_environment(env).drift(p.leeway)
     return Motion(state.heading, state.r, state.u, state.v,
                   state.u * s + state.v * c + ce, state.u * c - state.v * s + cn)
 
 
-def _legacy_rover_step(state: rover.RoverState, inputs: tuple[float, float],
-                       env: SimEnvironment, dt: float, p: rover.RoverParams) -> rover.RoverState:
-    return rover.step(state, inputs, legacy_environment(env), dt, p)
+def _hull_rover_step(state: rover.RoverState, inputs: tuple[float, float],
+                     env: SimEnvironment, dt: float, p: rover.RoverParams) -> rover.RoverState:
+    return rover.step(state, inputs, hull_environment(env), dt, p)
 
 
-def _legacy_rover_truth(state: rover.RoverState, t: float, env: SimEnvironment,
-                        p: rover.RoverParams) -> Truth:
-    return rover.truth(state, t, legacy_environment(env), p)
+def _hull_rover_truth(state: rover.RoverState, t: float, env: SimEnvironment,
+                      p: rover.RoverParams) -> Truth:
+    return rover.truth(state, t, hull_environment(env), p)
 
 
-def _legacy(name: str, vehicle: str, variant: str) -> VehicleModel:
+def _hull(name: str, vehicle: str, variant: str) -> VehicleModel:
     skid = variant == "skid"
     functions = (FN_THROTTLE_LEFT, FN_THROTTLE_RIGHT) if skid else (FN_STEERING, FN_THROTTLE)
     if vehicle == "boat":
         return VehicleModel(name, vehicle, MAV_TYPE_SURFACE_BOAT, boat.BoatParams(variant=variant),
                             (), functions, lambda h: boat.BoatState(heading=h),
-                            _legacy_boat_step, _legacy_boat_truth, _legacy_boat_motion,
+                            _hull_boat_step, _hull_boat_truth, _hull_boat_motion,
                             _by_function(skid))
     return VehicleModel(name, vehicle, MAV_TYPE_GROUND_ROVER, rover.RoverParams(variant=variant),
                         (), functions, lambda h: rover.RoverState(heading=h),
-                        _legacy_rover_step, _legacy_rover_truth, _rover_motion,
+                        _hull_rover_step, _hull_rover_truth, _rover_motion,
                         _by_function(skid))
 
 
-# (vehicle, variant) of ``--vehicle/--variant`` → mavhelm's own hull; the first variant of each
-# vehicle is its default
-LEGACY_MODELS: dict[tuple[str, str], VehicleModel] = {
-    ("boat", "skid"): _legacy("mavhelm-boat", "boat", "skid"),
-    ("boat", "rudder"): _legacy("mavhelm-boat-rudder", "boat", "rudder"),
-    ("rover", "ackermann"): _legacy("mavhelm-rover", "rover", "ackermann"),
-    ("rover", "skid"): _legacy("mavhelm-rover-skid", "rover", "skid"),
-}
-ALL_MODEL_NAMES: tuple[str, ...] = tuple(MODELS) + tuple(m.name for m in LEGACY_MODELS.values())
+HULL_MODELS: dict[str, VehicleModel] = {
+    m.name: m for m in (_hull("mavhelm-boat", "boat", "skid"),
+                        _hull("mavhelm-boat-rudder", "boat", "rudder"),
+                        _hull("mavhelm-rover", "rover", "ackermann"),
+                        _hull("mavhelm-rover-skid", "rover", "skid"))}
+
+# Every model by name, ``--model``'s choices: ArduPilot's SITL names, then mavhelm's own hulls
+MODELS: dict[str, VehicleModel] = {**SITL_MODELS, **HULL_MODELS}
+MODEL_NAMES: tuple[str, ...] = tuple(MODELS)
+DEFAULT_MODEL = "mavhelm-boat"  # the twin-thruster hull the demo's figures were made on
 
 
-def legacy_model(vehicle: str, variant: str | None = None) -> VehicleModel:
-    """mavhelm's own hull for ``--vehicle``/``--variant`` (variant None: the vehicle's default:
-    boat skid, rover ackermann); ValueError naming what is allowed otherwise."""
-    variants = [v for veh, v in LEGACY_MODELS if veh == vehicle]
-    if not variants:
-        raise ValueError(f"vehicle must be boat or rover, not {vehicle!r}")
-    chosen = variant or variants[0]
-    if chosen not in variants:
-        raise ValueError(f"{vehicle} variant must be one of {tuple(variants)}, not {chosen!r}")
-    return LEGACY_MODELS[(vehicle, chosen)]
-
-
-def find_model(name: str) -> VehicleModel:
-    """A model by name: ArduPilot's SITL names, or mavhelm's own hulls (``mavhelm-boat``,
-    ``mavhelm-boat-rudder``, ``mavhelm-rover``, ``mavhelm-rover-skid``)."""
-    for model in LEGACY_MODELS.values():
-        if model.name == name:
-            return model
+def get_model(name: str) -> VehicleModel:
+    """The model called ``name``; ValueError naming the known ones otherwise."""
     try:
-        return get_model(name)
-    except ValueError:
+        return MODELS[name]
+    except KeyError:
         raise ValueError(f"unknown vehicle model {name!r}; known: "
-                         f"{', '.join(ALL_MODEL_NAMES)}") from None
+                         f"{', '.join(MODEL_NAMES)}") from None

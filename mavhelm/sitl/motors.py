@@ -47,6 +47,9 @@ class MotorsUGV:
         # growing while either is set: AR_AttitudeControl::get_throttle_out_speed)
         self.limit_lower = True
         self.limit_upper = True
+        # limit.steer_left || steer_right of the last output: the steering rate controller's
+        # I-term may then only shrink (AR_AttitudeControl::get_steering_out_rate)
+        self.limit_steer = True
 
     def slew_limited(self, throttle: float, dt: float) -> float:
         """AP_MotorsUGV::get_slew_limited_throttle: ``throttle`` (-1..1) moved no further from
@@ -84,6 +87,34 @@ class MotorsUGV:
                 upper = upper or out > 0
         self.limit_lower, self.limit_upper = lower, upper
         return out
+
+    def steering_output(self, steering: float, ground_speed: float, armed: bool,
+                        scaled: bool) -> float:
+        """The steering path of AP_MotorsUGV::output_regular for a steering/throttle vehicle:
+        in a mode that asks for scaling (all but MANUAL), above MOT_SPD_SCA_BASE (m/s) the
+        steering shrinks as base / speed, so a turn-rate demand gives the same turn rate at any
+        speed; at or below it the steering is marked limited, so the rate controller's I-term
+        cannot wind up while the vehicle is too slow to turn; backing up reverses it.
+        MOT_SPD_SCA_BASE 0 turns both off (upstream still marks the steering limited then:
+        docs/sim-differences.md), which is what mavhelm's own hulls, tuned without it, run.
+        A skid vehicle has no steering output and keeps ``steering``. Sets ``limit_steer``
+        (also at full deflection, set_limits_from_input)."""
+        if self.skid or not armed:
+            self.limit_steer = not armed
+            return steering
+        limit = False
+        if scaled:
+            base = self.params.get("MOT_SPD_SCA_BASE", 1.0)
+            speed = abs(ground_speed)
+            if base > 0.0:
+                if speed > base:
+                    steering *= base / speed
+                else:
+                    limit = True
+            if ground_speed < 0.0:
+                steering = -steering
+        self.limit_steer = limit or abs(steering) >= 1.0
+        return steering
 
     def do_set_servo(self, channel: int, pwm: int) -> int:
         """MAV_CMD_DO_SET_SERVO: refused on outputs that already have a function."""

@@ -1,4 +1,4 @@
-"""NMEA 0183 sentences and mavhelm's proprietary sensor lines: encoders and a checking parser.
+"""NMEA 0183 sentences and mavhelm's proprietary sensor lines: encoders only.
 
 The simulator's serial sensors speak exactly what real instruments on a boat speak, so the
 companion's serial readers are tested against the real thing: standard NMEA for GPS (GGA, RMC),
@@ -10,8 +10,8 @@ manufacturer code ``MVH`` for mavhelm) for the instruments that have no standard
 - ``$PMVHRNG,t,id,range*CS`` — one radio range.
 
 Encoders return a sentence **without** the line ending; the serial port adds ``\\r\\n``.
-Every field layout is documented in docs/sim-sensors.md. The encoders are cross-checked in the
-tests against the independent parser of the ``pynmea2`` library.
+Every field layout is documented in docs/sim-sensors.md. The simulator only writes sentences;
+whatever reads them (the companion, the tests) uses the project's parser, ``pynmea2``.
 """
 
 from __future__ import annotations
@@ -22,10 +22,6 @@ from datetime import UTC, datetime
 KNOTS_PER_MPS = 3600.0 / 1852.0
 FEET_PER_M = 1.0 / 0.3048
 FATHOMS_PER_M = 1.0 / 1.8288
-
-
-class NmeaError(ValueError):
-    """A line that is not a well-formed sentence with a correct checksum."""
 
 
 def checksum(body: str) -> str:
@@ -42,37 +38,6 @@ def sentence(address: str, fields: Sequence[str]) -> str:
     if any(c in body for c in "$*\r\n!"):
         raise ValueError(f"reserved character in sentence body {body!r}")
     return f"${body}*{checksum(body)}"
-
-
-def parse_sentence(line: str | bytes) -> tuple[str, list[str]]:
-    """Split a sentence into (address, fields) after checking framing and checksum.
-
-    ``address`` is talker + sentence type (``GPGGA``) or the proprietary name (``PMVHDVL``).
-    A trailing ``\\r\\n`` is accepted. Raises NmeaError on anything else, so the companion
-    can count and skip garbage instead of crashing on it.
-    """
-    if isinstance(line, bytes):
-        try:
-            line = line.decode("ascii")
-        except UnicodeDecodeError as exc:
-            raise NmeaError("non-ASCII bytes in sentence") from exc
-    line = line.rstrip("\r\n")
-    if not line.startswith("$"):
-        raise NmeaError(f"no '$' start: {line[:20]!r}")
-    star = line.rfind("*")
-    if star == -1:
-        raise NmeaError(f"no checksum: {line[:40]!r}")
-    body, given = line[1:star], line[star + 1 :]
-    if len(given) != 2 or any(c not in "0123456789ABCDEFabcdef" for c in given):
-        raise NmeaError(f"malformed checksum {given!r}")
-    if "$" in body or "*" in body:
-        raise NmeaError("stray '$' or '*' inside the sentence")
-    if checksum(body) != given.upper():
-        raise NmeaError(f"checksum {given} != computed {checksum(body)}")
-    parts = body.split(",")
-    if not parts[0] or not parts[0].isalnum():
-        raise NmeaError(f"bad address {parts[0]!r}")
-    return parts[0], parts[1:]
 
 
 # ---------------------------------------------------------------------------- field helpers
@@ -112,21 +77,6 @@ def nmea_lat(lat: float, decimals: int = 6) -> tuple[str, str]:
 def nmea_lon(lon: float, decimals: int = 6) -> tuple[str, str]:
     """Longitude degrees → (``dddmm.mmmmmm``, ``E``/``W``)."""
     return _angle(lon, 3, "EW", decimals)
-
-
-def parse_latlon(value: str, hemi: str) -> float:
-    """``ddmm.mmmm`` / ``dddmm.mmmm`` + hemisphere → signed degrees."""
-    if not value:
-        raise NmeaError("empty position field")
-    dot = value.index(".") if "." in value else len(value)
-    degrees = float(value[: dot - 2])
-    minutes = float(value[dot - 2 :])
-    signed = degrees + minutes / 60.0
-    if hemi in ("S", "W"):
-        return -signed
-    if hemi not in ("N", "E"):
-        raise NmeaError(f"bad hemisphere {hemi!r}")
-    return signed
 
 
 def _f(value: float, decimals: int) -> str:

@@ -9,13 +9,14 @@ sounder, DVL, range beacons) on pseudo-terminals and prints each one's ``/dev/pt
 from __future__ import annotations
 
 import argparse
+import math
 import select
 import sys
 import time
 from typing import Any
 
 from mavhelm.sitl.flat_earth import Origin
-from mavhelm.sitl.models import ALL_MODEL_NAMES
+from mavhelm.sitl.models import DEFAULT_MODEL, MODEL_NAMES, get_model
 
 TICK = 0.01  # wall seconds between simulator steps
 DEFAULT_HOME = (56.0, -3.0, 0.0)
@@ -63,6 +64,29 @@ def _out(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"bad port in {text!r}") from exc
 
 
+def positive_number(text: str) -> float:
+    """An argparse ``type=``: a positive, finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"expected a positive number, not {text!r}")
+    return value
+
+
+def _param(text: str) -> tuple[str, float]:
+    """``NAME=VALUE`` of ``--param``."""
+    name, sep, value = text.partition("=")
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if not sep or not name.strip() or not math.isfinite(number):
+        raise argparse.ArgumentTypeError(f"--param wants NAME=VALUE, not {text!r}")
+    return name.strip().upper(), number
+
+
 def _home(text: str) -> tuple[float, float, float]:
     try:
         vals = [float(v) for v in text.split(",")]
@@ -99,19 +123,14 @@ def parse_beacons(text: str) -> list[Any]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``mavhelm sim`` options."""
-    parser.add_argument("--model", default=None, choices=ALL_MODEL_NAMES, metavar="NAME",
-                        help="vehicle model by ArduPilot SITL's name: motorboat (steering + "
-                             "throttle), motorboat-skid (twin thrusters), rover, rover-skid; "
-                             "or mavhelm's own hulls (mavhelm-boat, mavhelm-boat-rudder, "
-                             "mavhelm-rover, mavhelm-rover-skid); replaces --vehicle/--variant")
+    parser.add_argument("--model", default=DEFAULT_MODEL, choices=MODEL_NAMES, metavar="NAME",
+                        help="vehicle model: ArduPilot SITL's motorboat (steering + throttle), "
+                             "motorboat-skid (twin thrusters), rover, rover-skid; or mavhelm's "
+                             "own hulls: mavhelm-boat (default: twin thrusters, BlueBoat-like), "
+                             "mavhelm-boat-rudder, mavhelm-rover (Ackermann), mavhelm-rover-skid")
     parser.add_argument("--defaults", default=None, metavar="FILE[,FILE...]",
                         help="ArduPilot .parm files applied over the parameter table, in "
                              "order, as the SITL's --defaults (e.g. rover.parm,motorboat.parm)")
-    parser.add_argument("--vehicle", choices=("boat", "rover"), default="boat",
-                        help="mavhelm's own hulls (without --model): boat (default) or rover")
-    parser.add_argument("--variant", default=None,
-                        help="boat: skid (default, twin thrusters) | rudder; "
-                             "rover: ackermann (default) | skid")
     parser.add_argument("--port", type=_ports, default=[5760, 5762, 5763],
                         help="TCP ports to listen on, comma separated (default 5760,5762,5763)")
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
@@ -123,14 +142,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mission", default=None,
                         help="start at this mission's LatOrigin/LongOrigin (a mission's "
                              "waypoints are metres from its origin)")
-    parser.add_argument("--speedup", type=float, default=1.0,
+    parser.add_argument("--speedup", type=positive_number, default=1.0,
                         help="run N times faster than real time (default 1)")
     parser.add_argument("--fast-start", action="store_true",
                         help="compress the start-up timeline to ~3 s")
     parser.add_argument("--scenario", default=None, help="fault scenario file (.scn)")
     parser.add_argument("--seed", type=int, default=None,
                         help="random seed (default: the scenario's, else 0)")
-    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+    parser.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
                         help="set a parameter at start, e.g. SIM_CURRENT_SPD=0.5 (repeatable)")
     parser.add_argument("--sensors", action="store_true",
                         help="serve the serial sensors (NMEA GPS, heading, depth, DVL) on "
@@ -164,14 +183,12 @@ def make_sensor_ports(vehicle: str, origin: Origin, scenario: Any, beacons: list
                       ranging: str, epoch: float | None = None) -> list[Any]:
     """The serial sensor kit on ptys: ``default_ports`` for a boat; a rover has no echo
     sounder and its "DVL" is wheel odometry (no altitude, never loses lock)."""
-    import math
-
     from mavhelm.sitl.serial_sensors import DvlSensor, PtySerialPort, default_ports
 
     ports = default_ports(origin, scenario, beacons or (), ranging=ranging, pty=True)
     try:
         if vehicle == "rover":
-            keep = []
+            keep: list[Any] = []
             for port in ports:
                 if port.name in ("depth", "dvl"):
                     port.close()
@@ -192,139 +209,140 @@ def make_sensor_ports(vehicle: str, origin: Origin, scenario: Any, beacons: list
     return ports
 
 
-def _params(items: list[str]) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ValueError(f"--param wants NAME=VALUE, not {item!r}")
-        out[name.strip().upper()] = float(value)
-    return out
+class _Refused(Exception):
+    """A start-up problem: its message goes to stderr and ``status`` is the exit status."""
+
+    def __init__(self, message: str, status: int = 2) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _scenario(args: argparse.Namespace) -> tuple[Any, int | None]:
+    """(the fault scenario or None, the seed: --seed, else the scenario's)."""
+    if not args.scenario:
+        return None, args.seed
+    from mavhelm.sitl.faults import Scenario, ScenarioError
+
+    try:
+        scenario = Scenario.from_file(args.scenario)
+    except ScenarioError as exc:
+        raise _Refused(str(exc)) from None
+    return scenario, scenario.seed if args.seed is None else args.seed
+
+
+def _defaults(args: argparse.Namespace) -> Any:
+    """The --defaults files, read leniently (their skipped lines said on stderr), or None."""
+    if not getattr(args, "defaults", None):
+        return None
+    from mavhelm.sitl.parm_file import ParmFileError, read_defaults
+
+    try:
+        defaults = read_defaults(args.defaults, strict=False)
+    except ParmFileError as exc:
+        raise _Refused(f"--defaults: {exc}") from None
+    for skipped in defaults.skipped:
+        print(f"mavhelm sim: {skipped} (skipped, as ArduPilot does)", file=sys.stderr)
+    return defaults
+
+
+def _start(args: argparse.Namespace) -> tuple[float, float, float]:
+    """(lat, lon, heading): --home, else the --mission's origin, else DEFAULT_HOME."""
+    if args.home is not None:
+        return args.home
+    if not getattr(args, "mission", None):
+        return DEFAULT_HOME
+    from mavhelm.core.errors import LocatedError
+    from mavhelm.core.geodesy import mission_origin
+    from mavhelm.core.mission import load_mission
+
+    try:
+        origin = mission_origin(load_mission(args.mission))
+    except LocatedError as exc:
+        raise _Refused(str(exc)) from None
+    return origin.lat, origin.lon, 0.0
+
+
+def _sensor_ports(args: argparse.Namespace, vehicle: str, home: Origin, scenario: Any,
+                  seed: int | None, epoch: float) -> list[Any]:
+    """The serial instruments' ptys with --sensors (none without)."""
+    beacons = getattr(args, "beacons", None)
+    if not getattr(args, "sensors", False):
+        if beacons:
+            raise _Refused("--beacons needs --sensors")
+        return []
+    from mavhelm.sitl.faults import Scenario
+
+    # the serial noise comes from the scenario's streams; --seed seeds them without one
+    sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
+    try:
+        return make_sensor_ports(vehicle, home, sensor_scenario, beacons,
+                                 getattr(args, "ranging", "acoustic"), epoch)
+    except OSError as exc:
+        raise _Refused(f"cannot open a pseudo-terminal: {exc}", 1) from None
+
+
+def _listen_refused(args: argparse.Namespace, exc: OSError) -> _Refused:
+    """Why the simulator could not listen, with free ports to try when they are taken."""
+    busy = [p for p in args.port if p and not _port_free(args.host, p)]
+    if not busy:
+        return _Refused(f"cannot listen: {exc}", 1)
+    spare = ",".join(str(p + 10) for p in args.port)
+    return _Refused(f"TCP port {busy[0]} on {args.host} is already in use (another SITL or "
+                    f"mavhelm sim?): choose free ones with --port, e.g. --port {spare}", 1)
 
 
 def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C. Returns the process exit status."""
+    try:
+        return _run(args)
+    except _Refused as exc:
+        print(f"mavhelm sim: {exc}", file=sys.stderr)
+        return exc.status
+
+
+def _run(args: argparse.Namespace) -> int:
     from mavhelm.sitl.simulator import Simulator
 
-    model = getattr(args, "model", None)
-    if model is not None and args.variant is not None:
-        print("mavhelm sim: --model replaces --vehicle/--variant; give one or the other",
-              file=sys.stderr)
-        return 2
-    if args.variant is not None:
-        allowed = ("skid", "rudder") if args.vehicle == "boat" else ("ackermann", "skid")
-        if args.variant not in allowed:
-            print(f"mavhelm sim: --variant for a {args.vehicle} must be one of "
-                  f"{', '.join(allowed)}", file=sys.stderr)
-            return 2
-    if args.speedup <= 0:
-        print("mavhelm sim: --speedup must be positive", file=sys.stderr)
-        return 2
-    scenario = None
-    seed = args.seed
-    if args.scenario:
-        from mavhelm.sitl.faults import Scenario, ScenarioError
-
-        try:
-            scenario = Scenario.from_file(args.scenario)
-        except ScenarioError as exc:
-            print(f"mavhelm sim: {exc}", file=sys.stderr)
-            return 2
-        if seed is None:
-            seed = scenario.seed
-    try:
-        params = _params(getattr(args, "param", []) or [])
-    except ValueError as exc:
-        print(f"mavhelm sim: {exc}", file=sys.stderr)
-        return 2
-    defaults = None
-    if getattr(args, "defaults", None):
-        from mavhelm.sitl.parm_file import ParmFileError, read_defaults
-
-        try:
-            defaults = read_defaults(args.defaults, strict=False)
-        except ParmFileError as exc:
-            print(f"mavhelm sim: --defaults: {exc}", file=sys.stderr)
-            return 2
-        for skipped in defaults.skipped:
-            print(f"mavhelm sim: {skipped} (skipped, as ArduPilot does)", file=sys.stderr)
-    vehicle = args.vehicle
-    if model is not None:
-        from mavhelm.sitl.models import find_model
-
-        vehicle = find_model(model).vehicle
-    sensors = getattr(args, "sensors", False)
-    beacons = getattr(args, "beacons", None)
-    if beacons and not sensors:
-        print("mavhelm sim: --beacons needs --sensors", file=sys.stderr)
-        return 2
-    if args.home is not None:
-        lat, lon, heading = args.home
-    elif getattr(args, "mission", None):
-        from mavhelm.core.errors import LocatedError
-        from mavhelm.core.geodesy import mission_origin
-        from mavhelm.core.mission import load_mission
-
-        try:
-            origin = mission_origin(load_mission(args.mission))
-        except LocatedError as exc:
-            print(f"mavhelm sim: {exc}", file=sys.stderr)
-            return 2
-        lat, lon, heading = origin.lat, origin.lon, 0.0
-    else:
-        lat, lon, heading = DEFAULT_HOME
+    model = get_model(args.model)
+    scenario, seed = _scenario(args)
+    params = dict(getattr(args, "param", []) or [])
+    defaults = _defaults(args)
+    lat, lon, heading = _start(args)
     home = Origin(lat, lon)
     epoch = time.time()
     clock = PacedClock(args.speedup)
-    ports: list[Any] = []
-    if sensors:
-        from mavhelm.sitl.faults import Scenario
-
-        # the serial noise comes from the scenario's streams; --seed seeds them without one
-        sensor_scenario = scenario if scenario is not None else Scenario(seed=seed or 0)
-        try:
-            ports = make_sensor_ports(vehicle, home, sensor_scenario, beacons,
-                                      getattr(args, "ranging", "acoustic"), epoch)
-        except OSError as exc:
-            print(f"mavhelm sim: cannot open a pseudo-terminal: {exc}", file=sys.stderr)
-            return 1
+    ports = _sensor_ports(args, model.vehicle, home, scenario, seed, epoch)
     try:
         try:
-            chosen: dict[str, Any] = ({"model": model} if model is not None else
-                                      {"vehicle": args.vehicle, "variant": args.variant})
-            sim = Simulator(clock, **chosen, ports=args.port, host=args.host,
+            sim = Simulator(clock, model=model, ports=args.port, host=args.host,
                             udp_out=args.out, home=home,
                             start_heading=heading, fast_start=args.fast_start,
                             scenario=scenario, params=params, seed=seed or 0, epoch=epoch,
                             serial_sensors=ports,
                             defaults=defaults)
         except OSError as exc:
-            busy = [p for p in args.port if p and not _port_free(args.host, p)]
-            if busy:
-                spare = ",".join(str(p + 10) for p in args.port)
-                print(f"mavhelm sim: TCP port {busy[0]} on {args.host} is already in use "
-                      f"(another SITL or mavhelm sim?): choose free ones with --port, e.g. "
-                      f"--port {spare}", file=sys.stderr)
-            else:
-                print(f"mavhelm sim: cannot listen: {exc}", file=sys.stderr)
-            return 1
+            raise _listen_refused(args, exc) from None
         where = ", ".join(f"tcp:{args.host}:{p}" for p in sim.ports)
         outs = ", ".join(f"udp:{h}:{p}" for h, p in args.out)
-        what = sim.model.name if model is not None else f"{vehicle} ({sim.variant})"
-        print(f"mavhelm sim: {what} at {lat:.6f},{lon:.6f} "
+        print(f"mavhelm sim: {model.name} at {lat:.6f},{lon:.6f} "
               f"listening on {where}" + (f", sending to {outs}" if outs else ""), flush=True)
         for port in ports:
             print(f"mavhelm sim: {describe_port(port)}", flush=True)
-        try:
-            while True:
-                sim.step(clock.now())
-                socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
-                select.select(socks, [], [], TICK)
-        except KeyboardInterrupt:
-            print("mavhelm sim: stopped", flush=True)
-            return 0
-        finally:
-            sim.close()
+        return _serve(sim, clock)
     finally:
         for port in ports:
             port.close()
+
+
+def _serve(sim: Any, clock: PacedClock) -> int:
+    """Step the simulator on the paced clock until Ctrl-C."""
+    try:
+        while True:
+            sim.step(clock.now())
+            socks = [s for s in sim.hub.servers] + [lk.sock for lk in sim.links]
+            select.select(socks, [], [], TICK)
+    except KeyboardInterrupt:
+        print("mavhelm sim: stopped", flush=True)
+        return 0
+    finally:
+        sim.close()

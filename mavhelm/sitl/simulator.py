@@ -30,7 +30,7 @@ from mavhelm.sitl.estimator import Estimator
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.gcs_mavlink import BOAT_ONLY, ORDER_INDEX, ROVER_ONLY, STREAMS, GcsMavlink
 from mavhelm.sitl.links import Link, LinkHub
-from mavhelm.sitl.models import VehicleModel, find_model, legacy_model
+from mavhelm.sitl.models import DEFAULT_MODEL, VehicleModel, get_model
 from mavhelm.sitl.parameters import ParameterTable
 from mavhelm.sitl.parm_file import ParmValues, read_defaults
 from mavhelm.sitl.statustext import chunks
@@ -64,18 +64,10 @@ SIM_FIRMWARE_DEFAULTS: dict[str, float] = {"SIM_WIND_T": 0.0}
 FENCE_PARAMS = {"FENCE_ENABLE": 0.0, "FENCE_TYPE": 6.0, "FENCE_ACTION": 1.0,
                 "FENCE_RADIUS": 300.0, "FENCE_MARGIN": 2.0}
 
-def _variant_name(model: VehicleModel) -> str:
-    """The ``--variant`` word of a model, for messages: skid, rudder (boat) or ackermann."""
-    if model.skid:
-        return "skid"
-    return "rudder" if model.vehicle == "boat" else "ackermann"
-
-
 class Simulator:
     """A stand-in for ArduPilot Rover SITL that serves MAVLink on TCP ports and UDP outputs."""
 
-    def __init__(self, clock: Any, *, model: str | VehicleModel | None = None,
-                 vehicle: str | None = None, variant: str | None = None,
+    def __init__(self, clock: Any, *, model: str | VehicleModel = DEFAULT_MODEL,
                  defaults: str | Sequence[str | Path] | ParmValues | None = None,
                  ports: Sequence[int] = (5760, 5762, 5763), host: str = "127.0.0.1",
                  udp_out: Sequence[tuple[str, int]] = (), home: Origin = DEFAULT_HOME,
@@ -83,25 +75,16 @@ class Simulator:
                  params: dict[str, float] | None = None, seed: int = 0,
                  serial_sensors: Sequence[Any] = (), epoch: float | None = None,
                  wait_for_client: bool = False) -> None:
-        """``model``: ArduPilot's SITL name (``motorboat``, ``motorboat-skid``, ``rover``,
-        ``rover-skid``), one of mavhelm's own hulls by name, or a VehicleModel. Without it,
-        ``vehicle``/``variant`` pick mavhelm's own hull (boat skid by default), as before the
-        registry. ``defaults``: ArduPilot ``.parm`` files (a comma-separated string or paths,
-        or already read), read leniently as the firmware does and applied over the parameter
-        table (names the table lacks are added: the real firmware has them); ``params`` are
-        applied after them. The table a SITL model starts from holds ArduPilot's own defaults
-        (autopilot.ARDUPILOT_DEFAULTS), as the real SITL's does; mavhelm's own hulls keep the
-        gains and navigation values tuned to them."""
-        if model is not None and (vehicle is not None or variant is not None):
-            raise ValueError("give model= or vehicle=/variant=, not both")
-        if model is None:
-            self.model = legacy_model(vehicle or "boat", variant)
-        elif isinstance(model, str):
-            self.model = find_model(model)
-        else:
-            self.model = model
+        """``model``: a name of the model registry (ArduPilot's SITL names ``motorboat``,
+        ``motorboat-skid``, ``rover``, ``rover-skid``, or mavhelm's own hulls, ``mavhelm-boat``
+        by default) or a VehicleModel. ``defaults``: ArduPilot ``.parm`` files (a
+        comma-separated string or paths, or already read), read leniently as the firmware does
+        and applied over the parameter table (names the table lacks are added: the real
+        firmware has them); ``params`` are applied after them. The table a SITL model starts
+        from holds ArduPilot's own defaults (autopilot.ARDUPILOT_DEFAULTS), as the real SITL's
+        does; mavhelm's own hulls keep the gains and navigation values tuned to them."""
+        self.model = get_model(model) if isinstance(model, str) else model
         self.vehicle = self.model.vehicle
-        self.variant = _variant_name(self.model)
         if defaults is None:
             loaded = ParmValues()
         elif isinstance(defaults, ParmValues):

@@ -10,12 +10,13 @@ the arming checks and the HEARTBEAT ask.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, ClassVar, cast
 
 from mavhelm.sitl.attitude_control import clamp, wrap180
 
 if TYPE_CHECKING:
     from mavhelm.sitl.autopilot import Autopilot
+    from mavhelm.sitl.modes.loiter import ModeLoiter
 
 # Rover custom modes (Rover/mode.h, enum Mode::Number)
 MANUAL, ACRO, STEERING, HOLD, LOITER, FOLLOW, SIMPLE = 0, 1, 3, 4, 5, 6, 7
@@ -27,6 +28,9 @@ class Mode:
 
     number: ClassVar[int]
     name: ClassVar[str]
+    # the steering goes out scaled by speed (AP_MotorsUGV::set_steering's apply_scaling): every
+    # mode but MANUAL (without MANUAL_OPTIONS' speed-scaling bit, which is not modelled)
+    scales_steering: ClassVar[bool] = True
 
     def __init__(self, autopilot: Autopilot) -> None:
         self.ap = autopilot
@@ -115,7 +119,7 @@ class Mode:
     def start_loiter(self) -> None:
         """ModeLoiter::_enter (what GUIDED and RTL call for a boat with nothing to do): hold
         the stopping point ahead (AR_WPNav::get_stopping_location), keeping the heading."""
-        self.ap.modes[LOITER].enter_loiter()
+        cast("ModeLoiter", self.ap.modes[LOITER]).enter_loiter()
 
     def loiter(self, now: float, dt: float) -> None:
         """ModeLoiter::update on the shared loiter state (upstream calls
@@ -123,7 +127,7 @@ class Mode:
         a = self.ap
         if a.loiter_point is None:
             self.start_loiter()
-        a.modes[LOITER].update_loiter(now, dt)
+        cast("ModeLoiter", a.modes[LOITER]).update_loiter(now, dt)
 
     def navigate_to_waypoint(self, target: tuple[float, float], speed: float,
                              now: float, dt: float) -> bool:

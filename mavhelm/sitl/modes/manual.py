@@ -12,6 +12,7 @@ class ModeManual(Mode):
 
     number = MANUAL
     name = "MANUAL"
+    scales_steering = False
 
     def has_manual_input(self) -> bool:
         return True
