@@ -22,10 +22,12 @@ demo: $(BIN)/.installed
 
 test: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
 test-fast: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: $(BIN)/.installed
@@ -45,6 +47,7 @@ params: $(BIN)/.installed
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
+	$(BIN)/mypy
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .ruff_cache
