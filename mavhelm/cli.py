@@ -196,6 +196,27 @@ def _params(args: argparse.Namespace) -> int:
     return 0
 
 
+def _convert(args: argparse.Namespace) -> int:
+    from mavhelm.companion.companion import Plan
+    from mavhelm.companion.moos import convert, mission_notes
+    from mavhelm.core.clock import WallClock
+    from mavhelm.core.errors import LocatedError
+    from mavhelm.core.mission import load_mission
+
+    mission = load_mission(args.mission)
+    for line in convert(mission):
+        print(line)
+    for note in mission_notes(mission):
+        print(f"note: {note}")
+    try:
+        Plan.from_mission(mission, WallClock())
+    except LocatedError as exc:
+        print(f"mavhelm would refuse this mission: {exc}")
+        return 1
+    print(f"{args.mission}: loads as it is")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from mavhelm.sitl import runner
 
@@ -291,6 +312,10 @@ def build_parser() -> argparse.ArgumentParser:
     params = sub.add_parser("params", help="print the reference of every mission setting "
                             "(Markdown: names, units, defaults, accepted ranges)")
     params.set_defaults(func=_params)
+    convert = sub.add_parser("convert", help="print what each line of a MOOS mission file maps "
+                             "to in mavhelm (honoured, accepted and not used, or refused)")
+    convert.add_argument("mission", help="mission file (.moos)")
+    convert.set_defaults(func=_convert)
     return parser
 
 

@@ -15,20 +15,66 @@ from typing import TextIO
 
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
+from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.mission import Block, Mission
-from mavhelm.core.params import Param, PathName, Schema
+from mavhelm.core.moos import APP_PARAMS
+from mavhelm.core.params import (
+    Alias,
+    Boolean,
+    Fixed,
+    Number,
+    Param,
+    PathName,
+    Refused,
+    Schema,
+    Text,
+)
+
+EVERY_VARIABLE = "the .alog holds every variable, each time it is posted"
+NO_SLOG = "mavhelm writes no synchronous .slog"
+
+LOG_DIR = Param("LogDir", PathName(folder=True), "runs", doc="folder for the .alog, relative "
+                "to where mavhelm run is started (default: the global GlobalLogPath, else "
+                "runs); `mavhelm run --log-dir` overrides it", attr="log_dir",
+                aliases=(Alias("PATH"),))
 
 LOGGER_SCHEMA = Schema("pLogger", (
-    Param("LogDir", PathName(folder=True), "runs", doc="folder for the .alog, relative to "
-          "where mavhelm run is started; `mavhelm run --log-dir` overrides it",
-          attr="log_dir"),
-))
+    LOG_DIR,
+    Param("AsyncLog", Fixed("TRUE", True, "mavhelm always writes the asynchronous .alog"),
+          True, attr="async_log"),
+    Param("WildcardLogging", Boolean(), None, attr="wildcard_logging", unused=EVERY_VARIABLE),
+    Param("Log", Text(), [], repeat=True, attr="log", unused=EVERY_VARIABLE),
+    Param("WildcardExclusionLog", Boolean(), None, attr="wildcard_exclusion_log",
+          unused=EVERY_VARIABLE),
+    Param("FileTimeStamp", Boolean(), None, attr="file_time_stamp",
+          unused="the .alog's name always holds its start time"),
+    Param("UTCLogDirectories", Boolean(), None, attr="utc_log_directories",
+          unused="the .alog's name always holds its start time"),
+    Param("DoublePrecision", Number(1, 17, integer=True), None, attr="double_precision",
+          unused="numbers are written with 12 significant digits, as MOOS's default"),
+    Param("SyncLog", Fixed("FALSE", False, f"{NO_SLOG}; remove SyncLog or set it false"),
+          False, attr="sync_log"),
+    Param("DynamicSyncLogColumns", Number(0, 1000, integer=True), None,
+          attr="dynamic_sync_log_columns", unused=NO_SLOG),
+    Param("CompressAlogs", Fixed("FALSE", False, "mavhelm writes the .alog uncompressed"),
+          False, attr="compress_alogs"),
+    Param("File", Refused("the .alog is named after the mission file and its start time"),
+          None, attr="file"),
+    Param("LoggingDirectorySummaryFile", Refused("mavhelm writes no summary file"), None,
+          attr="logging_directory_summary_file"),
+), moos=APP_PARAMS)
+"""mavhelm's pLogger block, with the keys MOOS's pLogger reads: honoured, noted as unused
+(they only narrow what MOOS logs; mavhelm logs everything), or refused with why."""
 
 
 def log_dir(mission: Mission) -> str:
-    """The pLogger block's LogDir (checked like every block), or its default."""
+    """The pLogger block's LogDir (checked like every block), else the mission's global
+    GlobalLogPath (MOOS's GLOBALLOGPATH), else the default."""
     block = mission.process("pLogger") or Block("ProcessConfig", "pLogger", mission.path, 0)
-    return LOGGER_SCHEMA.read(block)["log_dir"]
+    folder = LOGGER_SCHEMA.read(block)["log_dir"]
+    if any(LOGGER_SCHEMA.param(e.key) is LOG_DIR for e in block.entries):
+        return folder
+    return GLOBAL_SCHEMA.read(mission.globals, owner="the mission")["global_log_path"] or folder
 
 _BANNER = "%" * 60
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf)", re.IGNORECASE)

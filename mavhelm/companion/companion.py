@@ -16,6 +16,7 @@ from mavhelm.companion.alog import AlogLogger, log_dir
 from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.link import AutopilotLink, transport_for
+from mavhelm.companion.moos import MoosNotes, mission_notes
 from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.serial_instruments import (
     SerialInstrument,
@@ -30,6 +31,7 @@ from mavhelm.core.community import Community
 from mavhelm.core.errors import LocatedError, SettingError
 from mavhelm.core.geodesy import Origin, mission_origin
 from mavhelm.core.mission import Mission, MissionError, load_mission
+from mavhelm.core.moos import FOREIGN, foreign
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
 
@@ -37,14 +39,23 @@ PROCESSES = ("iMAVLink", "pNav", "pHelm", "pLogger")
 """The ProcessConfig blocks a mission may hold: one per app of the companion."""
 
 
+ACOUSTICS = ("mavhelm reads beacons from the pNav block: write each as BEACON = <TX channel> "
+             "@ x,y,z TAT=<turn-around s>")
+"""Why the original's ``ProcessConfig = Acoustics`` block is refused."""
+
+
 def check_processes(mission: Mission) -> None:
     """Refuse a ProcessConfig block no app reads (a misspelt ``pHlem`` would otherwise be
-    ignored, with every setting in it)."""
+    ignored, with every setting in it); another MOOS process's block (ANTLER, iGPS) is
+    accepted and said on the console (:mod:`mavhelm.core.moos`)."""
     known = {name.lower() for name in PROCESSES}
     for name, block in mission.processes.items():
-        if name.lower() not in known and not is_instrument_block(name):
+        if name.lower() == "acoustics":
+            raise block.error(f"ProcessConfig = {name} is not read: {ACOUSTICS}")
+        if name.lower() not in known and not is_instrument_block(name) and not foreign(name):
             raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)}, "
-                              "iSerial_<label>)")
+                              "iSerial_<label>, and the MOOS processes mavhelm does not run: "
+                              f"{', '.join(p.name for p in FOREIGN)})")
 
 
 def _entries(mission: Mission, process: str) -> list[tuple[str, str]]:
@@ -171,6 +182,7 @@ class Companion:
         companion = cls(plan.mission, bus, bridge, navigator, helm, Community(bus, apps),
                         1.0 / helm.app_tick, plan, nav_logs)
         companion.community.apps.insert(0, HelmReloader(bus, companion.reload))
+        companion.community.apps.insert(0, MoosNotes(bus, mission_notes(plan.mission)))
         return companion
 
     def tick(self, now: float) -> None:

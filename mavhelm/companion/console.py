@@ -100,7 +100,8 @@ STATES = frozenset({"AP_LINK", "AP_MODE", "AP_ARMED", "HELM_STATUS"})
 """Posted on every HEARTBEAT or tick: an event only when the value changes."""
 
 ALERT_SEVERITY: tuple[tuple[str, Severity], ...] = (
-    ("_ERROR", Severity.ERROR), ("_WARNING", Severity.WARNING), ("_REFUSED", Severity.WARNING))
+    ("_ERROR", Severity.ERROR), ("_WARNING", Severity.WARNING), ("_REFUSED", Severity.WARNING),
+    ("_NOTE", Severity.NOTICE))
 """Any other variable ending so is an alert: ``LEG3_ERROR: starved …``."""
 
 GCS_LINES_PER_S = 4.0

@@ -111,6 +111,7 @@ from mavhelm.core.backoff import Backoff
 from mavhelm.core.bus import Bus
 from mavhelm.core.geodesy import Origin, heading_to_yaw
 from mavhelm.core.mission import Block, Entry, Mission
+from mavhelm.core.moos import APP_PARAMS
 from mavhelm.core.names import POSTED_FAMILIES, posted_family
 from mavhelm.core.params import Choice, ChoiceList, Kind, Param, PathName, Schema, Seconds
 
@@ -238,7 +239,7 @@ INSTRUMENT_SCHEMA = Schema(BLOCK_NAME, (
           doc="the sentence types to use; any other well-formed sentence is counted as "
               "dropped (unknown)"),
     STALE,
-))
+), moos=APP_PARAMS)
 """Every setting of an ``iSerial`` block, for the reader and for the parameter reference."""
 
 INSTRUMENT_INTRO = ("A serial NMEA instrument (GPS, heading, echo sounder, DVL, range "

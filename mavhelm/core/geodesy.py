@@ -16,6 +16,7 @@ from functools import cached_property
 import pymap3d
 
 from mavhelm.core.mission import Mission
+from mavhelm.core.moos import GLOBAL_PARAMS
 from mavhelm.core.params import Number, Param, Schema
 
 WGS84 = pymap3d.Ellipsoid.from_name("wgs84")
@@ -93,7 +94,7 @@ GLOBAL_SCHEMA = Schema("the mission's global settings", (
           doc="latitude of the local frame's origin (WGS-84)", attr="lat"),
     Param("LongOrigin", Number(-180.0, 180.0), unit="deg",
           doc="longitude of the local frame's origin (WGS-84)", attr="lon"),
-))
+), moos=GLOBAL_PARAMS)
 """Settings outside every block: the local frame's origin (X east, Y north of it)."""
 
 

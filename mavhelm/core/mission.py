@@ -171,6 +171,10 @@ class _Parser:
             return
         if text.startswith("}"):
             raise self.error(number, f"expected '}}' alone on its line, got {text!r}")
+        if text in ("[", "]"):
+            raise self.error(number, "a '[ … ]' group (the original pNav's Acoustics block) is "
+                             "not read: write each beacon in the pNav block as BEACON = "
+                             "<TX channel> @ x,y,z TAT=<turn-around s>")
         opens = text.endswith("{")
         if opens:
             text = text[:-1].rstrip()

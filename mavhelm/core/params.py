@@ -399,12 +399,66 @@ class Point(Kind):
 
 
 @dataclass(frozen=True)
+class Refused(Kind):
+    """A key the original MOOS pHelm or pNav reads but mavhelm cannot honour: any value is
+    refused with ``reason``, so a mission never relies on a setting that does nothing."""
+
+    reason: str
+
+    def describe(self) -> str:
+        return f"refused: {self.reason}"
+
+    def check_value(self, value: Any) -> bool:
+        return value is None
+
+    def parse(self, entry: Entry) -> Any:
+        raise entry.error(f"{entry.key} is not supported by mavhelm: {self.reason}")
+
+
+@dataclass(frozen=True)
+class Mapped(Kind):
+    """One word of a fixed set, each standing for a value (MOOS's ``EKF_VEHICLE_TYPE =
+    MOBILE`` for ``EKF_MOBILE = true``)."""
+
+    values: tuple[tuple[str, Any], ...]
+
+    def describe(self) -> str:
+        return "one of " + ", ".join(word for word, _ in self.values)
+
+    def check_value(self, value: Any) -> bool:
+        return any(value == v for _, v in self.values)
+
+    def parse(self, entry: Entry) -> Any:
+        word = entry.value.strip().upper()
+        for option, value in self.values:
+            if option.upper() == word:
+                return value
+        raise entry.error(f"{entry.key} expects {self.describe()}, got {entry.value.strip()!r}")
+
+
+@dataclass(frozen=True)
+class Alias:
+    """Another spelling of a setting, as the original MOOS source reads it; ``kind`` when the
+    original writes the value differently (else the setting's own kind parses it)."""
+
+    name: str
+    kind: Kind | None = None
+
+    @property
+    def key(self) -> str:
+        return self.name.lower()
+
+
+@dataclass(frozen=True)
 class Param:
     """One setting of a block, declared once.
 
     ``repeat``: the key may be written on several lines; the value is the list of the parsed
     lines (for a :class:`Names` kind, the lists are joined). ``attr`` is where a task or config
-    keeps it (by default the name in snake case).
+    keeps it (by default the name in snake case). ``aliases``: other spellings of the same
+    setting (the original MOOS keywords); two spellings in one block must agree. ``unused``:
+    why mavhelm accepts (and checks) this MOOS setting but has no use for it, said once on the
+    console when a mission gives it (``ServerHost``: mavhelm has no MOOSDB).
     """
 
     name: str
@@ -414,10 +468,17 @@ class Param:
     doc: str = ""
     repeat: bool = False
     attr: str = ""
+    aliases: tuple[Alias, ...] = ()
+    unused: str = ""
 
     @property
     def key(self) -> str:
         return self.name.lower()
+
+    def spellings(self) -> str:
+        """The name as the reference shows it, with its aliases."""
+        also = ", ".join(f"`{a.name}`" for a in self.aliases)
+        return f"`{self.name}`" + (f" (also {also})" if also else "")
 
     @property
     def required(self) -> bool:
@@ -453,6 +514,17 @@ class Param:
         return str(self.default)
 
 
+def _check_again(p: Param, first: Entry, entry: Entry, same: bool) -> None:
+    """A setting given a second time: refused, unless written once in each of two spellings
+    that agree (a MOOS file's ``EKF_SIGMA_XX`` and ``EKF_SIGMA_YY`` for one ``EKF_SIGMA_XY``)."""
+    if first.key.lower() == entry.key.lower():
+        raise entry.error(f"{entry.key} is already set at line {first.line}; "
+                          "give each setting once")
+    if not same:
+        raise entry.error(f"{entry.key} disagrees with {first.key} at line {first.line}: "
+                          f"both set {p.name}, which mavhelm holds once; give them one value")
+
+
 @dataclass(frozen=True)
 class Schema:
     """The settings of one kind of block (a task type, a ProcessConfig, the globals).
@@ -465,21 +537,59 @@ class Schema:
     owner: str
     params: tuple[Param, ...]
     unsupported: tuple[str, ...] = ()
+    moos: tuple[Param, ...] = ()
+    """MOOS boilerplate the block accepts too (``AppTick``, ``CommsTick``): read like the rest,
+    documented once for every block rather than in this block's table; a parameter of
+    ``params`` with the same name replaces it."""
     _by_key: dict[str, Param] = field(init=False, repr=False, compare=False)
+    _spelt: dict[str, tuple[Param, Kind]] = field(init=False, repr=False, compare=False)
+    _shown: frozenset[str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         by_key: dict[str, Param] = {}
         for p in self.params:
             by_key[p.key] = p
+        own = frozenset(by_key)
+        for p in self.moos:
+            by_key.setdefault(p.key, p)
+        spelt: dict[str, tuple[Param, Kind]] = {}
+        for p in by_key.values():
+            for alias in p.aliases:
+                spelt[alias.key] = (p, alias.kind or p.kind)
+        for p in by_key.values():
+            spelt[p.key] = (p, p.kind)
         object.__setattr__(self, "_by_key", by_key)
-        object.__setattr__(self, "params", tuple(by_key.values()))
+        object.__setattr__(self, "_spelt", spelt)
+        object.__setattr__(self, "_shown", own)
+        object.__setattr__(self, "params", tuple(p for p in by_key.values() if p.key in own))
+        object.__setattr__(self, "moos", tuple(p for p in by_key.values() if p.key not in own))
 
     def extend(self, owner: str, params: Iterable[Param],
                unsupported: Sequence[str] = ()) -> Schema:
-        return Schema(owner, (*self.params, *params), (*self.unsupported, *unsupported))
+        return Schema(owner, (*self.params, *params), (*self.unsupported, *unsupported),
+                      self.moos)
+
+    def every(self) -> tuple[Param, ...]:
+        """Every setting the block accepts: its own, then the MOOS boilerplate."""
+        return (*self.params, *self.moos)
 
     def param(self, name: str) -> Param | None:
-        return self._by_key.get(name.lower())
+        """The setting a key names, by its name or one of its aliases."""
+        found = self._spelt.get(name.lower())
+        return None if found is None else found[0]
+
+    def parse_entry(self, entry: Entry) -> tuple[Param, Any]:
+        """The setting one entry gives and its value, or a located refusal."""
+        spelt = self._spelt.get(entry.key.lower())
+        if spelt is None:
+            raise self.refuse_unknown(entry)
+        param, kind = spelt
+        return param, kind.parse(entry)
+
+    def unused_entries(self, block: Block) -> list[tuple[Entry, Param]]:
+        """The entries of ``block`` that give a setting mavhelm accepts but does not use."""
+        found = [(e, self.param(e.key)) for e in block.entries]
+        return [(e, p) for e, p in found if p is not None and p.unused]
 
     def known(self) -> str:
         return ", ".join(p.name for p in self.params)
@@ -513,10 +623,7 @@ class Schema:
             key = entry.key.lower()
             if key in skipped:
                 continue
-            p = self._by_key.get(key)
-            if p is None:
-                raise self.refuse_unknown(entry)
-            value = p.kind.parse(entry)
+            p, value = self.parse_entry(entry)
             if p.repeat:
                 bucket = values.setdefault(p.attribute, [])
                 if isinstance(p.kind, Names):
@@ -524,13 +631,12 @@ class Schema:
                 else:
                     bucket.append(value)
             else:
-                first = seen.get(key)
+                first = seen.get(p.key)
                 if first is not None:
-                    raise entry.error(f"{entry.key} is already set at line {first.line}; "
-                                      "give each setting once")
+                    _check_again(p, first, entry, values[p.attribute] == value)
                 values[p.attribute] = value
-            seen[key] = entry
-        for p in self.params:
+            seen[p.key] = entry
+        for p in self.every():
             if p.attribute in values:
                 continue
             if p.required:
@@ -556,9 +662,15 @@ class Schema:
                       "| --- | --- | --- | --- | --- |"]
             for p in self.params:
                 accepted = p.kind.describe() + ("; may repeat" if p.repeat else "")
-                lines.append(f"| `{p.name}` | {p.unit or '—'} | {p.describe_default()} | "
-                             f"{accepted} | {p.doc} |")
+                doc = f"{p.doc}; accepted, not used: {p.unused}" if p.unused and p.doc \
+                    else (p.doc or (f"accepted, not used: {p.unused}" if p.unused else ""))
+                lines.append(f"| {p.spellings()} | {p.unit or '—'} | {p.describe_default()} | "
+                             f"{accepted} | {doc} |")
             lines.append("")
+        if self.moos:
+            names = ", ".join(f"`{p.name}`" for p in self.moos)
+            lines += [f"Also accepted, as in every MOOS process's block, and not used: {names} "
+                      "(see MOOS boilerplate).", ""]
         if self.unsupported:
             names = ", ".join(f"`{u}*`" for u in self.unsupported)
             lines += [f"Refused as not supported yet: {names}.", ""]

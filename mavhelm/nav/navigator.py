@@ -23,6 +23,7 @@ injected ``NavLogSink`` (the companion writes files; a replay may keep them in m
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Final, Protocol
 
@@ -30,12 +31,15 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import heading_to_yaw, yaw_to_heading
 from mavhelm.core.mission import Block, Entry, Mission, MissionError
-from mavhelm.core.names import END_MISSION, NAVIGATION_FAILURE, NO_SOURCE
+from mavhelm.core.moos import APP_PARAMS, source_of
+from mavhelm.core.names import END_MISSION, HELM_ONLINE, NAVIGATION_FAILURE, NO_SOURCE
 from mavhelm.core.params import Boolean, FileStem, Param, PathName, Schema
 from mavhelm.nav.ekf import EKFConfig, Estimate
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
+from mavhelm.nav.original import ORIGINAL_ONLY
 from mavhelm.nav.priority_queue import PriorityQueue, QueueSpec
 from mavhelm.nav.sensor_channel import LSQ_REJECTION
+from mavhelm.nav.sensor_watch import SENSOR_SILENCE, SensorWatch
 from mavhelm.nav.sensors import (
     BEACON,
     FIXEDDEPTH,
@@ -122,7 +126,8 @@ NAV_SCHEMA = Schema(
      EKF_YAW_DYNAMICS, EKF_Z_DYNAMICS, EKF_MOBILE, EKF_LAG, EKF_YAW_BIAS, EKF_TIDE,
      EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE, EKF_MAX_SIGMA_XY, EKF_MAX_SPEED,
      LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, LSQ_DIVERGENCE, LBL_SOUND_SPEED,
-     *NAV_LOG_SETTINGS),
+     *NAV_LOG_SETTINGS, SENSOR_SILENCE, *ORIGINAL_ONLY),
+    moos=APP_PARAMS,
 )
 """A pNav block: its priority queues, its sensors, and the filters' settings."""
 
@@ -233,8 +238,9 @@ class Navigator(App):
     def __init__(self, bus: Bus, queues: list[PriorityQueue], *,
                  sensors: list[SensorSpec] | None = None, fusion: Fusion | None = None,
                  sound_speed: float = SOUND_SPEED, log: NavLogSink | None = None,
-                 log_settings: dict | None = None) -> None:
+                 log_settings: dict | None = None, watch: SensorWatch | None = None) -> None:
         super().__init__(bus)
+        self.watch = watch
         keys = [q.key for q in queues]
         if len(set(keys)) != len(keys):
             raise ValueError(f"duplicate priority queue keys in {keys}")
@@ -260,8 +266,10 @@ class Navigator(App):
         self.failure_posted = False
 
     @classmethod
-    def from_block(cls, bus: Bus, block: Block, log: NavLogSink | None = None) -> Navigator:
-        """Build from a ``ProcessConfig = pNav`` block; every refusal is a located error."""
+    def from_block(cls, bus: Bus, block: Block, log: NavLogSink | None = None,
+                   mission: Mission | None = None) -> Navigator:
+        """Build from a ``ProcessConfig = pNav`` block; every refusal is a located error.
+        ``mission``: where a SENSOR line's MOOS process name (``iSerial_gps``) is looked up."""
         settings = NAV_SCHEMA.read(block)
         if settings["yaw"] is not None and settings["heading"] is not None:
             later = max(block.require("Yaw"), block.require("Heading"), key=lambda e: e.line)
@@ -271,10 +279,17 @@ class Navigator(App):
             raise block.error("pNav needs at least one priority queue, e.g. X = GPS @ 2.0")
         filters = fusion_from_settings(settings, block)
         sensors, fusion = filters if filters is not None else (None, None)
+        origins: dict[str, str] = {}
+        for i, spec in enumerate(sensors or []):
+            source, how = source_of(spec.source, mission)
+            origins[spec.name] = how
+            sensors[i] = dataclasses.replace(spec, source=source)  # type: ignore[index]
+        watch = SensorWatch(sensors, settings[SENSOR_SILENCE.attribute], origins) \
+            if sensors else None
         log_settings = {p.attribute: settings[p.attribute] for p in NAV_LOG_SETTINGS}
         return cls(bus, queues, sensors=sensors, fusion=fusion,
                    sound_speed=settings[LBL_SOUND_SPEED.attribute], log=log,
-                   log_settings=log_settings)
+                   log_settings=log_settings, watch=watch)
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission, log: NavLogSink | None = None
@@ -283,7 +298,7 @@ class Navigator(App):
         block = mission.process("pNav")
         if block is None:
             raise MissionError(mission.path, 0, "the mission has no ProcessConfig = pNav block")
-        return cls.from_block(bus, block, log)
+        return cls.from_block(bus, block, log, mission)
 
     @property
     def log(self) -> NavLogSink | None:
@@ -305,11 +320,15 @@ class Navigator(App):
             subs = set(self._inputs)
             if self.reader is not None:
                 subs |= self.reader.subscriptions()
+            if self.watch is not None:
+                subs.add(HELM_ONLINE)
             self._subscriptions = frozenset(subs)
         return self._subscriptions
 
     def on_mail(self, mail: list[Message], now: float) -> None:
         mail = [m for m in mail if m.source != self.name]  # own EKF_*/LSQ_* already routed
+        if self.watch is not None:
+            self.watch.heard(((m.name, m.value) for m in mail), now)
         for msg in mail:
             self._route(msg.name, msg, now)
         if self.reader is not None and self.fusion is not None:
@@ -344,6 +363,9 @@ class Navigator(App):
             self._run_filters(now)
         for queue in self.queues:
             self._announce(queue.key, queue.current_source(now))
+        if self.watch is not None:
+            for warning in self.watch.warnings(now):
+                self.notify("NAV_WARNING", warning)
 
     def _run_filters(self, now: float) -> None:
         fusion = self.fusion

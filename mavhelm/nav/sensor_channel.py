@@ -38,12 +38,15 @@ class RejectionLine(Kind):
     label: ClassVar[str] = "sensor @ points, tolerance"
 
     def describe(self) -> str:
-        return "sensor name @ points (3–50), tolerance (the sensor's unit)"
+        return ("sensor name @ points (3–50), tolerance (the sensor's unit); or as the "
+                "original, sensor : History = points, Fail = tolerance")
 
     def check_value(self, value: Any) -> bool:
         return isinstance(value, RejectionRule)
 
     def parse(self, entry: Entry) -> RejectionRule:
+        if "@" not in entry.value and ":" in entry.value:
+            return self._original(entry)
         sensor, at, rest = (p.strip() for p in entry.value.partition("@"))
         parts = rest.split(",")
         if not at or not sensor or len(parts) != 2:
@@ -52,6 +55,21 @@ class RejectionLine(Kind):
         tolerance = Number(0.0, 1e4, lo_open=True).parse_text(parts[1], entry,
                                                               f"{entry.key} tolerance")
         return RejectionRule(sensor, int(points), tolerance)
+
+    def _original(self, entry: Entry) -> RejectionRule:
+        """The original pNav's ``sensor : History = n, Fail = x`` (keys in any order)."""
+        sensor, _, rest = (p.strip() for p in entry.value.partition(":"))
+        given: dict[str, str] = {}
+        for item in rest.split(","):
+            key, eq, value = (p.strip() for p in item.partition("="))
+            if not eq or key.upper() not in ("HISTORY", "FAIL") or key.upper() in given:
+                raise entry.error(f"{entry.key} expects {self.describe()}, got "
+                                  f"{entry.value!r}")
+            given[key.upper()] = value
+        if not sensor or set(given) != {"HISTORY", "FAIL"}:
+            raise entry.error(f"{entry.key} expects {self.describe()}, got {entry.value!r}")
+        return self.parse(Entry(entry.key, f"{sensor} @ {given['HISTORY']}, {given['FAIL']}",
+                                entry.file, entry.line))
 
 
 LSQ_REJECTION = Param("LSQ_REJECTION", RejectionLine(), [], repeat=True, attr="lsq_rejection",

@@ -53,7 +53,7 @@ from typing import Any, ClassVar, Final
 from mavhelm.core.bus import Message
 from mavhelm.core.geodesy import heading_to_yaw
 from mavhelm.core.mission import Entry
-from mavhelm.core.params import Kind, Number, Param
+from mavhelm.core.params import Alias, Kind, Number, Param
 from mavhelm.nav.ekf import (
     Beacon,
     BodyVelocity,
@@ -259,7 +259,8 @@ FIXEDSIDESLIP = Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s", 0.001
                       "every tick: the hull moves along its bow (0 @ 0.3 for a boat in little "
                       "current); the EKF then also turns its velocity with the yaw rate")
 LBL_SOUND_SPEED = Param("LBL_SOUND_SPEED", Number(1300.0, 1700.0), 1500.0, "m/s",
-                        "speed of sound for LBL travel times", attr="sound_speed")
+                        "speed of sound for LBL travel times", attr="sound_speed",
+                        aliases=(Alias("SV"),))
 SOUND_SPEED: Final = LBL_SOUND_SPEED.default
 """m/s: speed of sound in sea water, for LBL travel times."""
 

@@ -20,7 +20,7 @@ import math
 from collections.abc import Mapping
 from typing import Any, Final, TypeVar
 
-from mavhelm.core.params import Boolean, Number, Param, Seconds
+from mavhelm.core.params import Alias, Boolean, Mapped, Number, Param, Seconds
 
 SETTING: Final = "mavhelm.setting"
 """Metadata key of a config field declared by a setting: ``(param, scale)``."""
@@ -38,13 +38,14 @@ EKF_Y = Param("EKF_Y", Number(-1e5, 1e5), None, "m", "EKF start Y", attr="ekf_y"
 EKF_Z = Param("EKF_Z", Number(-1e4, 1e4), 0.0, "m", "EKF start Z (up)", attr="ekf_z")
 EKF_HEADING = Param("EKF_HEADING", Number(-360.0, 360.0), None, "deg",
                     "EKF start heading (default: the first orientation reading, else unknown)",
-                    attr="ekf_heading")
+                    attr="ekf_heading", aliases=(Alias("EKF_H"),))
 EKF_SIGMA_XY = Param("EKF_SIGMA_XY", Number(0.01, 1e5), 30.0, "m", "1-σ of the start position",
-                     attr="ekf_sigma_xy")
+                     attr="ekf_sigma_xy", aliases=(Alias("EKF_SIGMA_XX"), Alias("EKF_SIGMA_YY")))
 EKF_SIGMA_HEADING = Param("EKF_SIGMA_HEADING", Number(0.1, 360.0), 90.0, "deg",
-                          "1-σ of the start heading", attr="ekf_sigma_heading")
+                          "1-σ of the start heading", attr="ekf_sigma_heading",
+                          aliases=(Alias("EKF_SIGMA_HH"),))
 EKF_SIGMA_Z = Param("EKF_SIGMA_Z", Number(0.01, 1e5), 10.0, "m", "1-σ of the start Z",
-                    attr="ekf_sigma_z")
+                    attr="ekf_sigma_z", aliases=(Alias("EKF_SIGMA_ZZ"),))
 EKF_XY_DYNAMICS = Param("EKF_XY_DYNAMICS", _DYNAMICS, 5.0, "",
                         "0 (never changes) to 10 (very mobile)", attr="ekf_xy_dynamics")
 EKF_YAW_DYNAMICS = Param("EKF_YAW_DYNAMICS", _DYNAMICS, 5.0, "", "0 to 10, as above, for yaw",
@@ -52,14 +53,19 @@ EKF_YAW_DYNAMICS = Param("EKF_YAW_DYNAMICS", _DYNAMICS, 5.0, "", "0 to 10, as ab
 EKF_Z_DYNAMICS = Param("EKF_Z_DYNAMICS", _DYNAMICS, 5.0, "", "0 to 10, as above, for Z",
                        attr="ekf_z_dynamics")
 EKF_MOBILE = Param("EKF_MOBILE", Boolean(), True, "", "false: a static vehicle (no rate "
-                   "states)", attr="ekf_mobile")
+                   "states); the original's EKF_VEHICLE_TYPE defaults to static, mavhelm's to "
+                   "mobile (a boat moves)", attr="ekf_mobile",
+                   aliases=(Alias("EKF_VEHICLE_TYPE", Mapped((("MOBILE", True),
+                                                              ("STATIC", False)))),))
 EKF_LAG = Param("EKF_LAG", Number(0.0, 4.0), 0.0, "s", "run the EKF this far behind time "
-                "(spec 2.2.7; the LBL listen window)", attr="ekf_lag")
+                "(spec 2.2.7; the LBL listen window); the original's default is 2 s, mavhelm's "
+                "0 as nothing lags without LBL", attr="ekf_lag")
 EKF_YAW_BIAS = Param("EKF_YAW_BIAS", Boolean(), False, "", "estimate the orientation sensors' "
                      "heading bias (needs a BODY_VEL and a position sensor, spec 2.2.10)",
-                     attr="ekf_yaw_bias")
+                     attr="ekf_yaw_bias", aliases=(Alias("EKF_ESTIMATE_YAW_BIAS"),))
 EKF_TIDE = Param("EKF_TIDE", Boolean(), False, "", "estimate the tide (needs depth and beacon "
-                 "ranges, or FIXEDTIDE)", attr="ekf_tide")
+                 "ranges, or FIXEDTIDE); the original's EKF_TIDE is the start tide in metres, "
+                 "which mavhelm does not take", attr="ekf_tide")
 EKF_RANGE_SCALE = Param("EKF_RANGE_SCALE", Boolean(), True, "", "learn a range scale error "
                         "shared by every beacon (sound speed, clock rate)",
                         attr="ekf_range_scale")

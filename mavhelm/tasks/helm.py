@@ -12,6 +12,7 @@ import math
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.mission import Block, Mission, MissionError
+from mavhelm.core.moos import APP_PARAMS
 from mavhelm.core.names import (
     END_MISSION,
     HELM_ONLINE,
@@ -23,7 +24,7 @@ from mavhelm.core.names import (
     desired,
     source_variable,
 )
-from mavhelm.core.params import Number, Param, PathName, Schema
+from mavhelm.core.params import Number, Param, PathName, Refused, Schema
 from mavhelm.core.thirdparty import REPLY_VARIABLE, REQUEST_VARIABLE
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.end_mission import EndMission
@@ -44,7 +45,10 @@ HELM_SCHEMA = Schema("pHelm", (
     *GAIN_PARAMS,
     Param("Allow", AllowSpec(), [], repeat=True, attr="allow",
           doc="grant a third party (spec 1.3) tasks of these types; all else is denied"),
-))
+    Param("PIDLOGPATH", Refused("a task's LOGPID = true posts its controller's terms as "
+                                "<NAME>_YAW_PID, which the .alog holds; there is no PID log "
+                                "file"), None, attr="pid_log_path"),
+), moos=APP_PARAMS)
 """The pHelm block's own settings (its Task blocks are read by the task types' schemas)."""
 
 

@@ -18,7 +18,7 @@ completes, and its TimeOut defaults to NEVER. (The original MOOS task spelled th
 
 from __future__ import annotations
 
-from mavhelm.core.params import Number, Param
+from mavhelm.core.params import Alias, Number, Param
 from mavhelm.tasks.base import NavState
 from mavhelm.tasks.limit_box import LimitTask
 
@@ -31,7 +31,8 @@ class LimitAltitude(LimitTask):
                "below MinAltitude, then every 10 s while below; votes nothing, never completes")
     params = (
         Param("MinAltitude", Number(0.0, 11_000.0, lo_open=True), unit="m",
-              doc="least NAV_ALTITUDE (metres above the bottom) allowed", attr="min_altitude"),
+              doc="least NAV_ALTITUDE (metres above the bottom) allowed", attr="min_altitude",
+              aliases=(Alias("MinimumAltitude"),)),
     )
     min_altitude: float
 

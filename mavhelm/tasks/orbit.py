@@ -13,7 +13,7 @@ completes when it is back at the first vertex after ``Repeat`` orbits, posting
 from __future__ import annotations
 
 from mavhelm.core.mission import Block
-from mavhelm.core.params import Choice, Number, Param, Point
+from mavhelm.core.params import Alias, Choice, Number, Param, Point
 from mavhelm.tasks.geometry import Point2, nearest, polygon, side_length
 from mavhelm.tasks.trackline import RouteTask
 from mavhelm.tasks.waypoint import RADIUS
@@ -31,14 +31,16 @@ class Orbit(RouteTask):
         Param("Radius", Number(2.0, 10_000.0), unit="m", doc="radius of the orbit"),
         Param("PosRadius", RADIUS, None, "m",
               "capture radius of each vertex; less than half a side (default 3 m, or 40% of "
-              "a side if shorter)", attr="pos_radius"),
+              "a side if shorter; the original's default is 2 m)", attr="pos_radius"),
         Param("Direction", Choice(("CW", "CCW")), "CW",
               doc="CW: clockwise seen from above (bearing from the centre increasing); CCW: "
-              "anticlockwise"),
+              "anticlockwise; the original's default is CCW"),
         Param("Repeat", Number(1, 1000, integer=True), 1, "orbits",
-              "number of orbits before the task completes"),
+              "number of orbits before the task completes; the original orbits until its "
+              "TimeOut when Repeat is not given"),
         Param("Sides", Number(3, 360, integer=True), 16,
-              doc="sides of the polygon flown as the circle"),
+              doc="sides of the polygon flown as the circle; the original's default is 6 (at "
+              "most 30), which flies a hexagon rather than a circle", aliases=(Alias("TotalPos"),)),
     )
     location: tuple[float, float, float | None]
     radius: float

@@ -26,7 +26,7 @@ import math
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.mission import Block
-from mavhelm.core.params import Number, Param, Point
+from mavhelm.core.params import Alias, Number, Param, Point, Refused
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.waypoint import RADIUS
 from mavhelm.tasks.xypattern import Passes, check_pattern
@@ -50,10 +50,13 @@ class SteerThenDriveXYPattern(Task):
               doc="thrust while driving with the heading error within HeadingTolerance"),
         Param("HeadingTolerance", Number(0.0, 90.0, lo_open=True), 10.0, "deg",
               "turn on the spot until the heading error to the waypoint is below this",
-              attr="heading_tolerance"),
+              attr="heading_tolerance", aliases=(Alias("InnerYawLimit"),)),
         Param("OuterYawLimit", Number(0.0, 180.0, lo_open=True), 40.0, "deg",
               "while driving, thrust tapers to 0 as the error grows to this; beyond it, turn "
               "on the spot again; must exceed HeadingTolerance", attr="outer_yaw_limit"),
+        Param("ThrustDamping", Refused("mavhelm's thrust follows the heading error directly "
+                                       "(tapering to 0 at OuterYawLimit), with no first-order "
+                                       "filter"), None, attr="thrust_damping"),
     )
     locations: list[tuple[float, float, float | None]]
     radius: float

@@ -98,7 +98,7 @@ import math
 from collections import deque
 
 from mavhelm.core.geodesy import wrap_degrees
-from mavhelm.core.params import Number, Param, Point
+from mavhelm.core.params import Alias, Number, Param, Point
 from mavhelm.tasks.base import HEADING, NavState, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
@@ -317,7 +317,8 @@ class TrackLine(RouteTask):
         Param("P1", Point(), None, "m",
               "start of the line (x,y); default: where the vehicle is when the task goes "
               "active, i.e. the previous waypoint of a chain"),
-        Param("P2", Point(), unit="m", doc="end of the line (x,y), the goal"),
+        Param("P2", Point(), unit="m", doc="end of the line (x,y), the goal",
+              aliases=(Alias("Location"),)),
         Param("Lead", LEAD, DEFAULT_LEAD, "m",
               "the carrot's lead along the line beyond the vehicle's projection on it"),
         Param("Radius", RADIUS, 3.0, "m",

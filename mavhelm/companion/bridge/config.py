@@ -23,6 +23,7 @@ from mavhelm.companion.link import transport_for
 from mavhelm.companion.mode_request import ROVER_MODE_NUMBERS
 from mavhelm.companion.servos import Servo, ServoSpec
 from mavhelm.core.mission import Block, Entry, MissionError
+from mavhelm.core.moos import APP_PARAMS
 from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text, Word
 
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
@@ -129,7 +130,7 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("Stream", StreamRate(), [], repeat=True, attr="stream_rates",
           doc="a telemetry rate to ask for, on top of the defaults "
               "(" + ", ".join(f"{k}@{v:g}" for k, v in DEFAULT_STREAMS.items()) + ")"),
-))
+), moos=APP_PARAMS)
 
 
 def schema_defaults(schema: Schema) -> dict[str, Any]:
