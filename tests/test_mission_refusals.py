@@ -14,6 +14,7 @@ import pytest
 from mavhelm.companion.companion import Plan
 from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import MissionError
+from mavhelm.core.moos import FOREIGN
 
 DEMO = (Path(__file__).resolve().parents[1] / "examples" / "demo.moos").read_text().splitlines()
 HELM_KNOWN = ("known: AppTick, TaskFile, YAW_PID_KP, YAW_PID_KD, YAW_PID_KI, "
@@ -152,7 +153,9 @@ def test_an_unknown_process_block_is_refused(tmp_path):
         Plan.from_mission(path, SimClock())
     line = len(DEMO) + 1
     assert str(err.value) == (f"{path}:{line}: unknown ProcessConfig = pHlem "
-                              "(known: iMAVLink, pNav, pHelm, pLogger, iSerial_<label>)")
+                              "(known: iMAVLink, pNav, pHelm, pLogger, iSerial_<label>, and "
+                              "the MOOS processes mavhelm does not run: "
+                              f"{', '.join(p.name for p in FOREIGN)})")
 
 
 def test_a_setting_given_twice_is_refused_at_the_second(tmp_path):
@@ -239,5 +242,5 @@ def test_the_logger_block_is_checked_like_every_other(tmp_path):
     path.write_text("\n".join(DEMO) + "\nProcessConfig = pLogger\n{\n  SyncLog = true\n}\n")
     with pytest.raises(MissionError) as err:
         Plan.from_mission(path, SimClock())
-    assert str(err.value) == (f"{path}:{len(DEMO) + 3}: unknown setting 'SyncLog' for pLogger "
-                              "(known: LogDir)")
+    assert str(err.value) == (f"{path}:{len(DEMO) + 3}: mavhelm writes no synchronous .slog; "
+                              "remove SyncLog or set it false, got true")

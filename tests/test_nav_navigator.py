@@ -192,7 +192,7 @@ def nav_error(body: str) -> MissionError:
         ("  X = GPS\n  SENSOR_XY = G -> g @ 0,0,0,400", 5,
          "SENSOR_XY twist (deg) must be a number in [-180, 360], got 400"),
         ("  X = GPS\n  BEACON = 1 @ 0,0,0 TAT 0.2", 5, "write the turn-around as TAT=seconds"),
-        ("  X = GPS\n  AppTick = 10", 5, "unknown setting 'AppTick' for pNav"),
+        ("  X = GPS\n  AppTicks = 10", 5, "unknown setting 'AppTicks' for pNav"),
         ("  X = GPS @ later", 4, "timeout of GPS"),
         ("  X = GPS\n  x = EKF", 5, "x is already set at line 4; give each setting once"),
         ("  X = GPS @ nan", 4, "the timeout of GPS must be seconds in (0, 3600], got 'nan'"),

@@ -17,7 +17,7 @@ from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.mission import Block, Mission
-from mavhelm.core.moos import APP_PARAMS
+from mavhelm.core.moos import APP_PARAMS, GLOBAL_LOG_PATH
 from mavhelm.core.params import (
     Alias,
     Boolean,
@@ -41,7 +41,7 @@ LOG_DIR = Param("LogDir", PathName(folder=True), "runs", doc="folder for the .al
 LOGGER_SCHEMA = Schema("pLogger", (
     LOG_DIR,
     Param("AsyncLog", Fixed("TRUE", True, "mavhelm always writes the asynchronous .alog"),
-          True, attr="async_log"),
+          True, attr="async_log", doc="MOOS pLogger's asynchronous log: the .alog"),
     Param("WildcardLogging", Boolean(), None, attr="wildcard_logging", unused=EVERY_VARIABLE),
     Param("Log", Text(), [], repeat=True, attr="log", unused=EVERY_VARIABLE),
     Param("WildcardExclusionLog", Boolean(), None, attr="wildcard_exclusion_log",
@@ -53,11 +53,11 @@ LOGGER_SCHEMA = Schema("pLogger", (
     Param("DoublePrecision", Number(1, 17, integer=True), None, attr="double_precision",
           unused="numbers are written with 12 significant digits, as MOOS's default"),
     Param("SyncLog", Fixed("FALSE", False, f"{NO_SLOG}; remove SyncLog or set it false"),
-          False, attr="sync_log"),
+          False, attr="sync_log", doc="MOOS pLogger's synchronous log (.slog)"),
     Param("DynamicSyncLogColumns", Number(0, 1000, integer=True), None,
           attr="dynamic_sync_log_columns", unused=NO_SLOG),
     Param("CompressAlogs", Fixed("FALSE", False, "mavhelm writes the .alog uncompressed"),
-          False, attr="compress_alogs"),
+          False, attr="compress_alogs", doc="MOOS pLogger's gzipped .alog"),
     Param("File", Refused("the .alog is named after the mission file and its start time"),
           None, attr="file"),
     Param("LoggingDirectorySummaryFile", Refused("mavhelm writes no summary file"), None,
@@ -71,10 +71,13 @@ def log_dir(mission: Mission) -> str:
     """The pLogger block's LogDir (checked like every block), else the mission's global
     GlobalLogPath (MOOS's GLOBALLOGPATH), else the default."""
     block = mission.process("pLogger") or Block("ProcessConfig", "pLogger", mission.path, 0)
-    folder = LOGGER_SCHEMA.read(block)["log_dir"]
+    folder: str = LOGGER_SCHEMA.read(block)["log_dir"]
     if any(LOGGER_SCHEMA.param(e.key) is LOG_DIR for e in block.entries):
         return folder
-    return GLOBAL_SCHEMA.read(mission.globals, owner="the mission")["global_log_path"] or folder
+    for entry in mission.globals.entries:
+        if GLOBAL_SCHEMA.param(entry.key) is GLOBAL_LOG_PATH:
+            folder = GLOBAL_SCHEMA.parse_entry(entry)[1]
+    return folder
 
 _BANNER = "%" * 60
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf)", re.IGNORECASE)

@@ -11,6 +11,7 @@ from mavhelm.companion.bridge import IMAVLINK_SCHEMA
 from mavhelm.companion.companion import PROCESSES
 from mavhelm.companion.serial_instruments import INSTRUMENT_INTRO, INSTRUMENT_SCHEMA
 from mavhelm.core.geodesy import GLOBAL_SCHEMA
+from mavhelm.core.moos import APP_PARAMS, FOREIGN, GLOBAL_PARAMS, SOURCES
 from mavhelm.core.params import Schema
 from mavhelm.nav.navigator import NAV_SCHEMA
 from mavhelm.tasks.base import BASE_PARAMS, Task
@@ -63,4 +64,47 @@ def reference() -> str:
                          if c is cls and k != cls.keyword.lower())
         also = f" (also written {', '.join(aliases)})" if aliases else ""
         out.append(_own_schema(cls).reference(f"Task = {cls.keyword}{also}", cls.summary))
+    out.append(_moos())
     return "\n".join(out).rstrip() + "\n"
+
+
+def _moos() -> str:
+    """The MOOS section: boilerplate, other processes' blocks, SENSOR process names."""
+    out = [
+        "## MOOS missions",
+        "",
+        "A mission written for MOOS loads as it is: the original pHelm, task and pNav keywords",
+        "are the settings above (an alias is shown as \"also written\"), or are refused with the",
+        "reason where mavhelm cannot honour them. The boilerplate below is accepted and checked;",
+        "what a mission gives of it that mavhelm does not use is said once on the console, with",
+        "why. `mavhelm convert FILE` prints what each line of a mission maps to.",
+        "",
+        Schema("MOOS globals", GLOBAL_PARAMS).reference(
+            "MOOS boilerplate: global settings"),
+        Schema("every ProcessConfig", APP_PARAMS).reference(
+            "MOOS boilerplate: in every ProcessConfig block",
+            "pHelm's `AppTick` is its own setting (the companion's tick), above."),
+        "### ProcessConfig blocks of other MOOS processes",
+        "",
+        "Accepted whole and not run; the console says what does their work in mavhelm.",
+        "",
+        "| process | in mavhelm |",
+        "| --- | --- |",
+        *(f"| `{p.name}` | {p.why} |" for p in FOREIGN),
+        "",
+        "The original's `ProcessConfig = Acoustics` block (beacons as `Beacon = name [ … ]`) is",
+        "refused: write each beacon in pNav as `BEACON = <TX channel> @ x,y,z TAT=<s>`.",
+        "",
+        "### SENSOR sources",
+        "",
+        "The left side of a pNav `SENSOR_*` line names the MOOS process that sends the data.",
+        "These process names stand for mavhelm's sources; an `iSerial_<label>` block's name",
+        "stands for its `Name`; any other word is a source as it stands (its variables are",
+        "`<SOURCE>_X`, `<SOURCE>_Y`, …).",
+        "",
+        "| process | source | what it reads |",
+        "| --- | --- | --- |",
+        *(f"| `{s.process}` | `{s.source}` | {s.what} |" for s in SOURCES),
+        "",
+    ]
+    return "\n".join(out)

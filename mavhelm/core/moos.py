@@ -23,6 +23,11 @@ from mavhelm.core.params import Boolean, Choice, Number, Param, PathName, Schema
 NO_MOOSDB: Final = "no MOOSDB: mavhelm runs its own bus inside one process"
 ONE_TICK: Final = "every app of mavhelm ticks together, at pHelm's AppTick"
 
+GLOBAL_LOG_PATH: Final = Param(
+    "GlobalLogPath", PathName(folder=True), None, attr="global_log_path",
+    doc="folder of the logs when pLogger gives no LogDir (the nav logs go beside the .alog)")
+"""MOOS's GLOBALLOGPATH, which the original pLogger and pNav read: honoured by pLogger."""
+
 GLOBAL_PARAMS: Final = (
     Param("ServerHost", Text(), None, unused=NO_MOOSDB, attr="server_host"),
     Param("ServerPort", Number(1, 65535, integer=True), None, unused=NO_MOOSDB,
@@ -40,9 +45,7 @@ GLOBAL_PARAMS: Final = (
     Param("MagneticOffset", Number(-180.0, 180.0), None, "deg", attr="magnetic_offset",
           unused="the original ConstantHeading reads it but never applies it: headings are "
                  "true, the compass (the autopilot) corrects for variation"),
-    Param("GlobalLogPath", PathName(folder=True), None, attr="global_log_path",
-          doc="folder of the logs when pLogger gives no LogDir (the nav logs go beside the "
-              ".alog)"),
+    GLOBAL_LOG_PATH,
 )
 """Global keys of MOOS boilerplate (MOOSApp, MOOSDB, pHelm and pNav read them)."""
 
@@ -128,11 +131,8 @@ SOURCES: Final = (
     Source("iCompass", "INS", "the autopilot's attitude over MAVLink (ATTITUDE): INS_YAW"),
     Source("iOrientation", "INS", "the autopilot's attitude over MAVLink (ATTITUDE): "
            "INS_YAW"),
-    Source("iAutopilot", "AP", "the autopilot's own estimate (GLOBAL_POSITION_INT): AP_X, "
-           "AP_Y, AP_YAW"),
     Source("iMAVLink", "AP", "the autopilot's own estimate (GLOBAL_POSITION_INT): AP_X, AP_Y, "
            "AP_YAW"),
-    Source("iWheel", "WHEEL", "a rover's wheel odometry (WHEEL_DISTANCE): WHEEL_VX_BODY"),
 )
 """MOOS process names → mavhelm sources (the prefix of the bus variables a sensor reads).
 An ``iSerial_<label>`` block's own name stands for its ``Name``; any other word is a source

@@ -475,10 +475,20 @@ class Param:
     def key(self) -> str:
         return self.name.lower()
 
-    def spellings(self) -> str:
-        """The name as the reference shows it, with its aliases."""
-        also = ", ".join(f"`{a.name}`" for a in self.aliases)
-        return f"`{self.name}`" + (f" (also {also})" if also else "")
+    def __post_init__(self) -> None:
+        if not self.doc and isinstance(self.kind, Refused):
+            object.__setattr__(self, "doc", "a keyword of the original MOOS source, refused")
+        elif not self.doc and self.unused:
+            object.__setattr__(self, "doc", "MOOS boilerplate")
+
+    def meaning(self) -> str:
+        """The reference's meaning column: the doc, the aliases, and why it is not used."""
+        text = self.doc
+        if self.aliases:
+            text += f" (also written {', '.join(f'`{a.name}`' for a in self.aliases)})"
+        if self.unused:
+            text += f"; accepted, not used: {self.unused}"
+        return text
 
     @property
     def required(self) -> bool:
@@ -592,7 +602,8 @@ class Schema:
         return [(e, p) for e, p in found if p is not None and p.unused]
 
     def known(self) -> str:
-        return ", ".join(p.name for p in self.params)
+        """The settings a user may give (not the ones refused with a reason)."""
+        return ", ".join(p.name for p in self.params if not isinstance(p.kind, Refused))
 
     def refuse_unknown(self, entry: Entry) -> MissionError:
         key = entry.key.upper()
@@ -602,7 +613,7 @@ class Schema:
                                    f"{prefix.rstrip('_')} setting today); remove it")
         if not self.params:
             return entry.error(f"unknown setting {entry.key!r}: {self.owner} takes no settings")
-        names = {p.key: p.name for p in self.params}
+        names = {p.key: p.name for p in self.params if not isinstance(p.kind, Refused)}
         close = difflib.get_close_matches(entry.key.lower(), names, n=1, cutoff=0.75)
         hint = f"did you mean {names[close[0]]}? " if close else ""
         return entry.error(f"unknown setting {entry.key!r} for {self.owner} "
@@ -610,7 +621,8 @@ class Schema:
 
     def read(self, block: Block, *, skip: Iterable[str] = (),
              owner: str | None = None) -> dict[str, Any]:
-        """Parse every entry of ``block``; return attribute → value for every parameter.
+        """Parse every entry of ``block``; return attribute → value for every parameter of
+        its own (the MOOS boilerplate is checked, not returned).
 
         ``skip`` names keys another reader owns (the parser's TaskFile). Raises a located
         MissionError on the first entry it refuses, or on the block if a required key is
@@ -624,6 +636,12 @@ class Schema:
             if key in skipped:
                 continue
             p, value = self.parse_entry(entry)
+            if p.key not in self._shown:  # MOOS boilerplate: checked, said, not kept
+                first = seen.get(p.key)
+                if first is not None and not p.repeat:
+                    _check_again(p, first, entry, False)
+                seen[p.key] = entry
+                continue
             if p.repeat:
                 bucket = values.setdefault(p.attribute, [])
                 if isinstance(p.kind, Names):
@@ -636,7 +654,7 @@ class Schema:
                     _check_again(p, first, entry, values[p.attribute] == value)
                 values[p.attribute] = value
             seen[p.key] = entry
-        for p in self.every():
+        for p in self.params:
             if p.attribute in values:
                 continue
             if p.required:
@@ -662,15 +680,12 @@ class Schema:
                       "| --- | --- | --- | --- | --- |"]
             for p in self.params:
                 accepted = p.kind.describe() + ("; may repeat" if p.repeat else "")
-                doc = f"{p.doc}; accepted, not used: {p.unused}" if p.unused and p.doc \
-                    else (p.doc or (f"accepted, not used: {p.unused}" if p.unused else ""))
-                lines.append(f"| {p.spellings()} | {p.unit or '—'} | {p.describe_default()} | "
-                             f"{accepted} | {doc} |")
+                lines.append(f"| `{p.name}` | {p.unit or '—'} | {p.describe_default()} | "
+                             f"{accepted} | {p.meaning()} |")
             lines.append("")
         if self.moos:
             names = ", ".join(f"`{p.name}`" for p in self.moos)
-            lines += [f"Also accepted, as in every MOOS process's block, and not used: {names} "
-                      "(see MOOS boilerplate).", ""]
+            lines += [f"Also accepts the MOOS boilerplate {names} (see MOOS missions).", ""]
         if self.unsupported:
             names = ", ".join(f"`{u}*`" for u in self.unsupported)
             lines += [f"Refused as not supported yet: {names}.", ""]
