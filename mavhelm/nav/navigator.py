@@ -36,7 +36,7 @@ from mavhelm.core.names import END_MISSION, HELM_ONLINE, NAVIGATION_FAILURE, NO_
 from mavhelm.core.params import Boolean, FileStem, Param, PathName, Schema
 from mavhelm.nav.ekf import EKFConfig, Estimate
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
-from mavhelm.nav.original import ORIGINAL_ONLY
+from mavhelm.nav.original import ALWAYS_READ, ORIGINAL_ONLY
 from mavhelm.nav.priority_queue import PriorityQueue, QueueSpec
 from mavhelm.nav.sensor_channel import LSQ_REJECTION
 from mavhelm.nav.sensor_watch import SENSOR_SILENCE, SensorWatch
@@ -126,7 +126,7 @@ NAV_SCHEMA = Schema(
      EKF_YAW_DYNAMICS, EKF_Z_DYNAMICS, EKF_MOBILE, EKF_LAG, EKF_YAW_BIAS, EKF_TIDE,
      EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE, EKF_MAX_SIGMA_XY, EKF_MAX_SPEED,
      LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, LSQ_DIVERGENCE, LBL_SOUND_SPEED,
-     *NAV_LOG_SETTINGS, SENSOR_SILENCE, *ORIGINAL_ONLY),
+     *NAV_LOG_SETTINGS, SENSOR_SILENCE, ALWAYS_READ, *ORIGINAL_ONLY),
     moos=APP_PARAMS,
 )
 """A pNav block: its priority queues, its sensors, and the filters' settings."""
@@ -238,9 +238,11 @@ class Navigator(App):
     def __init__(self, bus: Bus, queues: list[PriorityQueue], *,
                  sensors: list[SensorSpec] | None = None, fusion: Fusion | None = None,
                  sound_speed: float = SOUND_SPEED, log: NavLogSink | None = None,
-                 log_settings: dict | None = None, watch: SensorWatch | None = None) -> None:
+                 log_settings: dict | None = None, watch: SensorWatch | None = None,
+                 always_read: tuple[str, ...] = ()) -> None:
         super().__init__(bus)
         self.watch = watch
+        self.always_read = frozenset(always_read)
         keys = [q.key for q in queues]
         if len(set(keys)) != len(keys):
             raise ValueError(f"duplicate priority queue keys in {keys}")
@@ -289,7 +291,8 @@ class Navigator(App):
         log_settings = {p.attribute: settings[p.attribute] for p in NAV_LOG_SETTINGS}
         return cls(bus, queues, sensors=sensors, fusion=fusion,
                    sound_speed=settings[LBL_SOUND_SPEED.attribute], log=log,
-                   log_settings=log_settings, watch=watch)
+                   log_settings=log_settings, watch=watch,
+                   always_read=tuple(settings[ALWAYS_READ.attribute]))
 
     @classmethod
     def from_mission(cls, bus: Bus, mission: Mission, log: NavLogSink | None = None
@@ -322,7 +325,7 @@ class Navigator(App):
                 subs |= self.reader.subscriptions()
             if self.watch is not None:
                 subs.add(HELM_ONLINE)
-            self._subscriptions = frozenset(subs)
+            self._subscriptions = frozenset(subs | self.always_read)
         return self._subscriptions
 
     def on_mail(self, mail: list[Message], now: float) -> None:

@@ -6,7 +6,12 @@ from __future__ import annotations
 
 from typing import Final
 
-from mavhelm.core.params import Param, Refused
+from mavhelm.core.params import Names, Param, Refused
+
+ALWAYS_READ = Param("ALWAYS_READ", Names(), [], repeat=True, attr="always_read",
+                    doc="variables pNav subscribes to beyond its queues' and sensors' (the "
+                    "original needed it for data such as LBL travel times; mavhelm's sensors "
+                    "subscribe to theirs already)")
 
 _NO_THRUST_MODEL = ("mavhelm does not derive velocity from thrust: declare a SENSOR_BODY_VEL "
                     "(a DVL, wheel odometry) or FIXEDSIDESLIP")
