@@ -49,7 +49,7 @@ class SensorWatch:
         self._online_since: float | None = None
         self._warned: set[str] = set()
 
-    def heard(self, names: Iterable[tuple[str, float]], now: float) -> None:
+    def heard(self, names: Iterable[tuple[str, float | str]], now: float) -> None:
         """Variable names with their value (HELM_ONLINE's matters) that arrived this tick."""
         for name, value in names:
             if name == HELM_ONLINE:
