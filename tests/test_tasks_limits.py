@@ -168,8 +168,8 @@ def test_limit_box_without_x_starves_from_activation(tblock: TBlock, nav_at: Nav
          "t.moos:62: MinAltitude must be a number in (0, 11000], got 0"),
         ((("EventFlag", "E"), ("MinAltitude", "two")),
          "t.moos:62: MinAltitude expects a number in (0, 11000], got 'two'"),
-        ((("EventFlag", "E"), ("MinimumAltitude", "2")),
-         "t.moos:62: unknown setting 'MinimumAltitude' for a LimitAltitude task "
+        ((("EventFlag", "E"), ("MinAltitudes", "2")),
+         "t.moos:62: unknown setting 'MinAltitudes' for a LimitAltitude task "
          "(did you mean MinAltitude?"),
         ((("MinAltitude", "2"),), "t.moos:60: LimitAltitude task LimitAltitude needs an "
                                   "EventFlag"),
