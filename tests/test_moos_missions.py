@@ -247,3 +247,14 @@ def test_the_moos_mission_flies_in_the_demo_unchanged():
             MOOS / "mission.moos")))
         silent = [m.string for m in run.values("NAV_WARNING") if "has had no data" in m.string]
         assert silent == [], "iGPS and iCompass reach the filter"
+
+
+def test_an_original_task_type_mavhelm_lacks_is_refused_with_why(tmp_path):
+    text = (MOOS / "tasks.moos").read_text().replace(
+        "    Task = Timer\n", "    Task = SeabedTrack\n    {\n        Altitude = 5\n    }\n\n"
+        "    Task = Timer\n", 1)
+    with pytest.raises(MissionError) as err:
+        _plan(text, tmp_path)
+    assert err.value.reason == ("task type SeabedTrack is not supported by mavhelm: holding an "
+                                "altitude above the seabed is not supported; LimitAltitude "
+                                "watches it")

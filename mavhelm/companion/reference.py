@@ -16,7 +16,7 @@ from mavhelm.core.params import Schema
 from mavhelm.nav.navigator import NAV_SCHEMA
 from mavhelm.tasks.base import BASE_PARAMS, Task
 from mavhelm.tasks.helm import HELM_SCHEMA
-from mavhelm.tasks.registry import TASK_TYPES, spelling
+from mavhelm.tasks.registry import NOT_SUPPORTED, TASK_TYPES, spelling
 
 PROCESS_SCHEMAS: dict[str, tuple[Schema, str]] = {
     "iMAVLink": (IMAVLINK_SCHEMA, "The link to the autopilot."),
@@ -94,6 +94,12 @@ def _moos() -> str:
         "",
         "The original's `ProcessConfig = Acoustics` block (beacons as `Beacon = name [ … ]`) is",
         "refused: write each beacon in pNav as `BEACON = <TX channel> @ x,y,z TAT=<s>`.",
+        "",
+        "### Task types of the original pHelm that mavhelm refuses",
+        "",
+        "| task | why |",
+        "| --- | --- |",
+        *(f"| `{name}` | {why} |" for name, why in NOT_SUPPORTED.values()),
         "",
         "### SENSOR sources",
         "",

@@ -45,6 +45,22 @@ SPELLINGS: dict[str, str] = {"timeout": "TimeOut"}
 """How a user writes an alias (the spec calls the Timer task TimeOut)."""
 
 
+NOT_SUPPORTED: dict[str, tuple[str, str]] = {
+    "seabedtrack": ("SeabedTrack", "holding an altitude above the seabed is not supported; "
+                    "LimitAltitude watches it"),
+    "pilot": ("Pilot", "set points from other processes (DepthControllingProcess, "
+              "YawControllingProcess, SpeedControllingProcess) are not supported; "
+              "VariableHeading holds a heading posted on the bus"),
+    "thirdparty": ("ThirdParty", "a third party's task comes over the bus or MAVLink, granted "
+                   "by the pHelm block's Allow, not from the mission file"),
+    "agvheadingspeed": ("AGVHeadingSpeed", "not supported; VariableHeading holds a heading "
+                        "posted on the bus"),
+    "vehicleframewaypoint": ("VehicleFrameWayPoint", "waypoints in the vehicle's frame are "
+                             "not supported; GoToWayPoint takes them in the mission's frame"),
+}
+"""Task types of the original pHelm that mavhelm refuses, with why."""
+
+
 def spelling(key: str) -> str:
     """A registry key as a user would write it."""
     return SPELLINGS.get(key, TASK_TYPES[key].keyword)
@@ -62,6 +78,9 @@ def task_class(keyword: str) -> type[Task] | None:
 def build_task(block: Block, gains: HelmGains | None = None) -> Task:
     """Build one task from its ``Task = Type { … }`` block, or raise a located MissionError."""
     cls = task_class(block.name)
+    refused = NOT_SUPPORTED.get(block.name.strip().lower())
+    if cls is None and refused is not None:
+        raise block.error(f"task type {refused[0]} is not supported by mavhelm: {refused[1]}")
     if cls is None:
         raise block.error(f"unknown task type {block.name!r} (known: {', '.join(known_types())})")
     return cls(block, gains)
