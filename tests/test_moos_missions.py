@@ -258,3 +258,10 @@ def test_an_original_task_type_mavhelm_lacks_is_refused_with_why(tmp_path):
     assert err.value.reason == ("task type SeabedTrack is not supported by mavhelm: holding an "
                                 "altitude above the seabed is not supported; LimitAltitude "
                                 "watches it")
+
+
+def test_ekf_tide_as_the_original_wrote_it_is_refused_with_the_difference(tmp_path):
+    with pytest.raises(MissionError) as err:
+        _plan(_with("    EKF_TIDE = 1.5"), tmp_path)
+    assert err.value.reason.startswith("EKF_TIDE expects true or false, got 1.5: in the "
+                                       "original pNav EKF_TIDE is the start tide in metres")

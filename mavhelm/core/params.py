@@ -214,6 +214,10 @@ class ChoiceList(Kind):
 
 @dataclass(frozen=True)
 class Boolean(Kind):
+    """true or false; ``number_reason``: what to say when a number is given instead (a key
+    whose original MOOS meaning was a number, as pNav's ``EKF_TIDE``)."""
+
+    number_reason: str = ""
     label: ClassVar[str] = "true or false"
 
     def check_value(self, value: Any) -> bool:
@@ -225,7 +229,18 @@ class Boolean(Kind):
             return True
         if v in ("false", "no", "0", "off"):
             return False
+        if self.number_reason and _is_number(v):
+            raise entry.error(f"{entry.key} expects true or false, got {entry.value.strip()}: "
+                              f"{self.number_reason}")
         raise entry.error(f"{entry.key} expects true or false, got {entry.value!r}")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 _WORD = re.compile(r"[A-Za-z0-9_.\-]+")

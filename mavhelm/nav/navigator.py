@@ -103,14 +103,15 @@ QUEUE_KEYS: Final = (
 degrees clockwise from north; configure one of the two, the navigator posts both. Velocities
 are in earth coordinates (spec 2)."""
 
-NAV_LOG = Param("NAV_LOG", Boolean(), True, "", "write the .olog and .xlog when filters run",
-                attr="nav_log")
+NAV_LOG = Param("NAV_LOG", Boolean(), True, "", "write the .olog and .xlog when filters run "
+                "(the original's default is false)", attr="nav_log")
 NAV_LOG_PATH = Param("NAV_LOG_PATH", PathName(folder=True), None, "", "folder of the nav "
                      "logs (default: the alog's)", attr="nav_log_path")
 NAV_LOG_STEM = Param("NAV_LOG_STEM", FileStem(), "pNav", "", "file name stem of the nav logs",
                      attr="nav_log_stem")
 NAV_LOG_TIMESTAMP = Param("NAV_LOG_TIMESTAMP", Boolean(), True, "", "put the creation time in "
-                          "the file names", attr="nav_log_timestamp")
+                          "the file names (the original's default is false)",
+                          attr="nav_log_timestamp")
 NAV_LOG_SETTINGS: Final = (NAV_LOG, NAV_LOG_PATH, NAV_LOG_STEM, NAV_LOG_TIMESTAMP)
 
 NAV_SCHEMA = Schema(

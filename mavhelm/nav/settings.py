@@ -63,9 +63,12 @@ EKF_LAG = Param("EKF_LAG", Number(0.0, 4.0), 0.0, "s", "run the EKF this far beh
 EKF_YAW_BIAS = Param("EKF_YAW_BIAS", Boolean(), False, "", "estimate the orientation sensors' "
                      "heading bias (needs a BODY_VEL and a position sensor, spec 2.2.10)",
                      attr="ekf_yaw_bias", aliases=(Alias("EKF_ESTIMATE_YAW_BIAS"),))
-EKF_TIDE = Param("EKF_TIDE", Boolean(), False, "", "estimate the tide (needs depth and beacon "
-                 "ranges, or FIXEDTIDE); the original's EKF_TIDE is the start tide in metres, "
-                 "which mavhelm does not take", attr="ekf_tide")
+_TIDE_IN_METRES = ("in the original pNav EKF_TIDE is the start tide in metres, which mavhelm "
+                   "does not take; here it says whether the tide is estimated")
+EKF_TIDE = Param("EKF_TIDE", Boolean(number_reason=_TIDE_IN_METRES), False, "",
+                 "estimate the tide (needs depth and beacon ranges, or FIXEDTIDE); the "
+                 "original's EKF_TIDE is the start tide in metres, which mavhelm does not take",
+                 attr="ekf_tide")
 EKF_RANGE_SCALE = Param("EKF_RANGE_SCALE", Boolean(), True, "", "learn a range scale error "
                         "shared by every beacon (sound speed, clock rate)",
                         attr="ekf_range_scale")
