@@ -57,7 +57,7 @@ def test_convert_says_what_every_line_maps_to(path):
     said = {int(line.split(":")[1]) for line in lines}
     for number, raw in enumerate(path.read_text().splitlines(), start=1):
         text = raw.split("//")[0].strip()
-        if text and text not in ("{", "}"):
+        if text and text not in ("{", "}", "[", "]"):
             assert number in said, f"{path.name}:{number} {text!r} is not converted"
     assert not [line for line in lines if "REFUSED" in line]
 
@@ -150,17 +150,39 @@ def test_lsq_rejection_reads_the_original_syntax():
         LSQ_REJECTION.kind.parse(bad)
 
 
-def test_the_acoustics_block_is_refused_with_what_to_write_instead(tmp_path):
-    text = (MOOS / "tasks.moos").read_text() + (
-        "\nProcessConfig = Acoustics\n{\n  Beacon = A\n  [\n  POS = 0,0,-30\n  ]\n}\n")
+def test_the_acoustics_block_gives_pnav_its_beacons_by_reply_channel():
+    plan = Plan.from_mission(MOOS / "pnav.moos", SimClock())
+    assert plan.navigator.fusion is not None
+    beacons = {b.name: (b.x, b.y, b.z, b.turnaround) for b in plan.navigator.fusion.config.beacons}
+    assert beacons == {"1": (0.0, 200.0, -30.0, 0.125), "2": (200.0, 0.0, -30.0, 0.125),
+                       "3": (0.0, 0.0, -30.0, 0.125)}
+
+
+@pytest.mark.parametrize(("body", "line", "reason"), [
+    ("  POS = 0,0,-30\n", 3, "POS comes before any Beacon = name"),
+    ("  Beacon = A\n  [\n  POS = 0,0,-30\n  ]\n", 3, "Beacon A needs TX"),
+    ("  Beacon = A\n  [\n  POS = 0,0,-30\n  TX = CHX\n  ]\n", 6,
+     "TX (the reply channel, CHn) expects a whole number in [1, 999], got 'X'"),
+    ("  Beacon = A\n  [\n  POS = 0,0,-30\n  TX = CH1\n  Depth = 3\n  ]\n", 7,
+     "unknown setting 'Depth' for the Acoustics block (known: Beacon = name, then POS, TX and "
+     "TAT)"),
+])
+def test_a_wrong_acoustics_block_is_refused_where_it_is(tmp_path, body, line, reason):
+    text = (MOOS / "pnav.moos").read_text()
+    start = text.index("ProcessConfig = Acoustics")
+    end = text.index("ProcessConfig = pNav")
+    text = text[:start] + "ProcessConfig = Acoustics\n{\n" + body + "}\n\n" + text[end:]
+    offset = text[:start].count("\n")
     with pytest.raises(MissionError) as err:
         _plan(text, tmp_path)
-    assert "BEACON = <TX channel> @ x,y,z TAT=<turn-around s>" in err.value.reason
-    text = (MOOS / "tasks.moos").read_text() + "\nProcessConfig = Acoustics\n{\n}\n"
+    assert (err.value.line - offset, err.value.reason) == (line, reason)
+
+
+def test_a_bracket_outside_the_acoustics_block_is_refused(tmp_path):
     with pytest.raises(MissionError) as err:
-        _plan(text, tmp_path)
-    assert err.value.reason.startswith("ProcessConfig = Acoustics is not read: mavhelm reads "
-                                       "beacons from the pNav block")
+        _plan(_with("    ["), tmp_path)
+    assert err.value.line == 16
+    assert err.value.reason.startswith("a '[' line belongs only in the Acoustics block")
 
 
 def test_global_log_path_is_where_the_logs_go_without_a_logdir(tmp_path):

@@ -32,6 +32,7 @@ from mavhelm.core.errors import LocatedError, SettingError
 from mavhelm.core.geodesy import Origin, mission_origin
 from mavhelm.core.mission import Mission, MissionError, load_mission
 from mavhelm.core.moos import FOREIGN, foreign
+from mavhelm.nav.acoustics import BLOCK as ACOUSTICS
 from mavhelm.nav.navigator import Navigator
 from mavhelm.tasks.helm import Helm
 
@@ -39,19 +40,13 @@ PROCESSES = ("iMAVLink", "pNav", "pHelm", "pLogger")
 """The ProcessConfig blocks a mission may hold: one per app of the companion."""
 
 
-ACOUSTICS = ("mavhelm reads beacons from the pNav block: write each as BEACON = <TX channel> "
-             "@ x,y,z TAT=<turn-around s>")
-"""Why the original's ``ProcessConfig = Acoustics`` block is refused."""
-
-
 def check_processes(mission: Mission) -> None:
     """Refuse a ProcessConfig block no app reads (a misspelt ``pHlem`` would otherwise be
     ignored, with every setting in it); another MOOS process's block (ANTLER, iGPS) is
-    accepted and said on the console (:mod:`mavhelm.core.moos`)."""
-    known = {name.lower() for name in PROCESSES}
+    accepted and said on the console (:mod:`mavhelm.core.moos`); the original's Acoustics
+    block is pNav's (:mod:`mavhelm.nav.acoustics`)."""
+    known = {name.lower() for name in (*PROCESSES, ACOUSTICS)}
     for name, block in mission.processes.items():
-        if name.lower() == "acoustics":
-            raise block.error(f"ProcessConfig = {name} is not read: {ACOUSTICS}")
         if name.lower() not in known and not is_instrument_block(name) and not foreign(name):
             raise block.error(f"unknown ProcessConfig = {name} (known: {', '.join(PROCESSES)}, "
                               "iSerial_<label>, and the MOOS processes mavhelm does not run: "

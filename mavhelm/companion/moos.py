@@ -19,6 +19,7 @@ from mavhelm.core.geodesy import GLOBAL_SCHEMA
 from mavhelm.core.mission import Block, Entry, Mission, MissionError
 from mavhelm.core.moos import foreign, notes, source_of
 from mavhelm.core.params import Schema
+from mavhelm.nav.acoustics import BLOCK as ACOUSTICS
 from mavhelm.nav.navigator import NAV_SCHEMA
 from mavhelm.tasks.helm import HELM_SCHEMA
 from mavhelm.tasks.registry import task_class
@@ -103,6 +104,8 @@ def _block_line(block: Block, mission: Mission) -> str:
     process = foreign(block.name)
     if process is not None:
         return f"not run by mavhelm: {process.why}"
+    if block.name.lower() == ACOUSTICS.lower():
+        return ("read by pNav: each Beacon is a BEACON named by its TX channel (LBL_TWTT_<n>)")
     if schema_of(block) is None:
         return "REFUSED: unknown ProcessConfig"
     return f"read as mavhelm's {block.name}"
@@ -118,7 +121,9 @@ def convert(mission: Mission) -> list[str]:
                        f"{_block_line(block, mission)}")
         for entry in block.entries:
             where = f"{entry.file}:{entry.line}: {entry.key} = {entry.value}"
-            if schema is None:
+            if block.name.lower() == ACOUSTICS.lower():
+                what = "honoured: part of a Beacon"
+            elif schema is None:
                 what = ("part of a block mavhelm does not run" if foreign(block.name)
                         else "REFUSED with its block")
             elif entry.key.lower() == "taskfile" and block.name.lower() == "phelm":

@@ -172,9 +172,11 @@ class _Parser:
         if text.startswith("}"):
             raise self.error(number, f"expected '}}' alone on its line, got {text!r}")
         if text in ("[", "]"):
-            raise self.error(number, "a '[ … ]' group (the original pNav's Acoustics block) is "
-                             "not read: write each beacon in the pNav block as BEACON = "
-                             "<TX channel> @ x,y,z TAT=<turn-around s>")
+            if self.task is None and self.process is not None and \
+                    self.process.name.lower() == "acoustics":
+                return  # the original's Beacon = name [ … ] groups: the entries are enough
+            raise self.error(number, f"a '{text}' line belongs only in the Acoustics block "
+                             "(Beacon = name [ POS = x,y,z  TX = CHn  TAT = s ])")
         opens = text.endswith("{")
         if opens:
             text = text[:-1].rstrip()

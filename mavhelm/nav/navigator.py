@@ -34,6 +34,7 @@ from mavhelm.core.mission import Block, Entry, Mission, MissionError
 from mavhelm.core.moos import APP_PARAMS, source_of
 from mavhelm.core.names import END_MISSION, HELM_ONLINE, NAVIGATION_FAILURE, NO_SOURCE
 from mavhelm.core.params import Boolean, FileStem, Param, PathName, Schema
+from mavhelm.nav.acoustics import BLOCK, acoustic_beacons
 from mavhelm.nav.ekf import EKFConfig, Estimate
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
 from mavhelm.nav.original import ALWAYS_READ, ORIGINAL_ONLY
@@ -131,6 +132,19 @@ NAV_SCHEMA = Schema(
     moos=APP_PARAMS,
 )
 """A pNav block: its priority queues, its sensors, and the filters' settings."""
+
+
+def _add_acoustics(settings: dict, mission: Mission | None) -> None:
+    """The original's Acoustics block's beacons join the pNav block's BEACONs."""
+    block = mission.process(BLOCK) if mission is not None else None
+    if block is None:
+        return
+    extra = acoustic_beacons(block)
+    clash = {b.name for b in settings[BEACON.attribute]} & {b.name for b in extra}
+    if clash:
+        raise block.error(f"beacon {sorted(clash)[0]} is declared both in pNav (BEACON) and in "
+                          "the Acoustics block; declare it once")
+    settings[BEACON.attribute] = [*settings[BEACON.attribute], *extra]
 
 
 class NavLogSink(Protocol):
@@ -280,6 +294,7 @@ class Navigator(App):
         queues = [settings[key.lower()] for key in QUEUE_KEYS if settings[key.lower()]]
         if not queues:
             raise block.error("pNav needs at least one priority queue, e.g. X = GPS @ 2.0")
+        _add_acoustics(settings, mission)
         filters = fusion_from_settings(settings, block)
         sensors, fusion = filters if filters is not None else (None, None)
         origins: dict[str, str] = {}
