@@ -160,23 +160,8 @@ class _Parser:
             self.pending = None
             return
         previous, self.previous = self.previous, None
-        if text == "{":
-            if previous is not None:
-                raise self.error(number, self._unknown_block(previous.key, previous.value))
-            raise self.error(
-                number, "'{' without a block header (ProcessConfig = Name or Task = Type)"
-            )
-        if text == "}":
-            self.close(number)
+        if self.bracket(text, number, previous):
             return
-        if text.startswith("}"):
-            raise self.error(number, f"expected '}}' alone on its line, got {text!r}")
-        if text in ("[", "]"):
-            if self.task is None and self.process is not None and \
-                    self.process.name.lower() == "acoustics":
-                return  # the original's Beacon = name [ … ] groups: the entries are enough
-            raise self.error(number, f"a '{text}' line belongs only in the Acoustics block "
-                             "(Beacon = name [ POS = x,y,z  TX = CHn  TAT = s ])")
         opens = text.endswith("{")
         if opens:
             text = text[:-1].rstrip()
@@ -204,6 +189,27 @@ class _Parser:
             raise self.error(number, self._unknown_block(key, value))
         self.previous = Entry(key, value, self.file, number)
         self.entry(self.previous)
+
+    def bracket(self, text: str, number: int, previous: Entry | None) -> bool:
+        """A line of ``{``, ``}``, ``[`` or ``]``: handled (True), refused, or not one (False)."""
+        if text == "{":
+            if previous is not None:
+                raise self.error(number, self._unknown_block(previous.key, previous.value))
+            raise self.error(
+                number, "'{' without a block header (ProcessConfig = Name or Task = Type)"
+            )
+        if text == "}":
+            self.close(number)
+            return True
+        if text.startswith("}"):
+            raise self.error(number, f"expected '}}' alone on its line, got {text!r}")
+        if text in ("[", "]"):
+            if self.task is None and self.process is not None and \
+                    self.process.name.lower() == "acoustics":
+                return True  # the original's Beacon = name [ … ] groups: entries are enough
+            raise self.error(number, f"a '{text}' line belongs only in the Acoustics block "
+                             "(Beacon = name [ POS = x,y,z  TX = CHn  TAT = s ])")
+        return False
 
     def header(self, kind: str, value: str, number: int) -> Block:
         if kind == "processconfig":
