@@ -287,3 +287,16 @@ def test_ekf_tide_as_the_original_wrote_it_is_refused_with_the_difference(tmp_pa
         _plan(_with("    EKF_TIDE = 1.5"), tmp_path)
     assert err.value.reason.startswith("EKF_TIDE expects true or false, got 1.5: in the "
                                        "original pNav EKF_TIDE is the start tide in metres")
+
+
+def test_mavhelm_convert_says_why_a_mission_would_be_refused(tmp_path):
+    path = tmp_path / "m.moos"
+    path.write_text(_with("    USETOPDOWN = TRUE"))
+    out = subprocess.run([sys.executable, "-m", "mavhelm.cli", "convert", str(path)],
+                         capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert out.returncode == 1, out.stderr
+    assert (f"{path}:16: USETOPDOWN = TRUE -> REFUSED: USETOPDOWN is not supported by mavhelm: "
+            "mavhelm has no top-down calibration engine") in out.stdout
+    assert out.stdout.rstrip().endswith(f"mavhelm would refuse this mission: {path}:16: "
+                                        "USETOPDOWN is not supported by mavhelm: mavhelm has no "
+                                        "top-down calibration engine")

@@ -22,7 +22,7 @@ from mavhelm.core.params import Schema
 from mavhelm.nav.acoustics import BLOCK as ACOUSTICS
 from mavhelm.nav.navigator import NAV_SCHEMA
 from mavhelm.tasks.helm import HELM_SCHEMA
-from mavhelm.tasks.registry import task_class
+from mavhelm.tasks.registry import NOT_SUPPORTED, task_class
 
 NOTE_VARIABLE = "MOOS_NOTE"
 """Where the notes go: the console shows a ``*_NOTE`` as a notice."""
@@ -100,7 +100,10 @@ def _entry_line(entry: Entry, schema: Schema, mission: Mission) -> str:
 def _block_line(block: Block, mission: Mission) -> str:
     if block.kind == "Task":
         cls = task_class(block.name)
-        return f"task {cls.keyword}" if cls is not None else "REFUSED: unknown task type"
+        if cls is not None:
+            return f"task {cls.keyword}"
+        refused = NOT_SUPPORTED.get(block.name.strip().lower())
+        return f"REFUSED: {refused[1]}" if refused else "REFUSED: unknown task type"
     process = foreign(block.name)
     if process is not None:
         return f"not run by mavhelm: {process.why}"
