@@ -2,14 +2,14 @@
 
 The SITL runs at ``--speedup 20``; the companion (``mavhelm run examples/demo.moos --clock
 autopilot``) sits on its SERIAL1 and paces itself on the autopilot's ``time_boot_ms``; a ground
-station on SERIAL0 (tests/ardupilot.py's ``RealOperator``) arms the boat in GUIDED. Prints the
-wall-clock time from start to MISSION_ENDED, the autopilot time of the mission, the speed-up
-achieved and the companion's tick period (from the .alog stamps of DESIRED_THRUST, posted once
-a tick while the helm drives) in autopilot seconds. Asserts nothing.
+station on SERIAL0 (tests/support/ardupilot.py's ``RealOperator``) arms the boat in GUIDED.
+Prints the wall-clock time from start to MISSION_ENDED, the autopilot time of the mission, the
+speed-up achieved and the companion's tick period (from the .alog stamps of DESIRED_THRUST,
+posted once a tick while the helm drives) in autopilot seconds. Asserts nothing.
 
 Needs MAVHELM_ARDUPILOT (the ardurover SITL binary); without it, says so and exits 0.
 Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_ardupilot_demo.py``.
+-m benchmarks.bench_ardupilot_demo``.
 """
 
 from __future__ import annotations
@@ -24,10 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
+from mavhelm.companion.alog import read_alog
+from tests.support.ardupilot import (
     ARDUPILOT_ENV,
     RealOperator,
     RealSitl,
@@ -35,8 +33,7 @@ from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
     ardupilot_binary,
 )
 
-from mavhelm.companion.alog import read_alog  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 DEMO = ROOT / "examples" / "demo.moos"
 SPEEDUP = 20
 MISSION_WALL_S = 120.0     # a hang guard, not a figure

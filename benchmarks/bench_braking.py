@@ -1,7 +1,7 @@
 """Benchmark: how the motorboat brakes under its autopilot, real ArduPilot SITL against mavhelm.
 
-Runs the script of tests/braking.py (armed in GUIDED, straight at 1.6 then 4 m/s on a refreshed
-velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the real SITL
+Runs the script of tests/support/braking.py (armed in GUIDED, straight at 1.6 then 4 m/s on a
+refreshed velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the real SITL
 (``--model motorboat``, stock ``--defaults``, calm, ``--speedup 10``) and on ``mavhelm sim
 --model motorboat`` with the same files, and prints the figures side by side: speed at the
 stop and 1 s / 3 s after, time to 0.3 m/s and to < 0.1 m/s, time until it stays stopped, the
@@ -13,7 +13,7 @@ ardurover SITL binary) for the real column; without it, says so, prints the simu
 and exits 0.
 
 Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_braking.py``.
+-m benchmarks.bench_braking``.
 """
 
 from __future__ import annotations
@@ -24,11 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary  # noqa: E402
-from braking import (  # noqa: E402  (tests/ is on the path only now)
+from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
+from tests.support.ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary
+from tests.support.braking import (
     CALM,
     HOME,
     RealBrakeSide,
@@ -39,8 +37,7 @@ from braking import (  # noqa: E402  (tests/ is on the path only now)
     write_stock_parms,
 )
 
-from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 10
 # the controller terms as autopilot.default_params tunes them to mavhelm's own rudder boat
 OWN_GAINS = {k: v for k, v in default_params(boat=True, skid=False).items()

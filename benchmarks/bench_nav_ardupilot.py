@@ -3,7 +3,7 @@ against ArduPilot").
 
 Both experiments run the real SITL (``MAVHELM_ARDUPILOT``, motorboat, ``--speedup 5``, calm
 water: ``SIM_WIND_SPD 0``, ``SIM_WAVE_ENABLE 0``; ``--wind`` keeps the stock wind and waves),
-the companion as ``mavhelm run MISSION --clock autopilot`` on SERIAL1 (tests/ardupilot.py's
+the companion as ``mavhelm run MISSION --clock autopilot`` on SERIAL1 (tests/support/ardupilot.py's
 ``CompanionProcess``) and a ground station on SERIAL0 (``RealOperator``) that arms the boat in
 GUIDED; the clocks start once the companion says ``helm ONLINE``. The mission patrols a 100 m
 box (XYPattern, Repeat FOREVER, Thrust 60) steered on NAV_*, and asks for ``SIMSTATE@10`` so
@@ -55,7 +55,7 @@ Targets (issue 9): NAV error ≤ half the raw GPS error; ≤ 2 m throughout the 
 
 Without MAVHELM_ARDUPILOT, says so and exits 0. About 2.5 minutes of wall time. Run:
 ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_nav_ardupilot.py`` (``--only noise,outage``; ``--keep DIR`` runs in DIR and
+-m benchmarks.bench_nav_ardupilot`` (``--only noise,outage``; ``--keep DIR`` runs in DIR and
 keeps the logs: .alog, .olog/.xlog, the SITL's and the instruments' output).
 """
 
@@ -75,11 +75,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
+from mavhelm.companion.alog import read_alog
+from mavhelm.core.bus import Message
+from mavhelm.core.geodesy import Origin
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav.replay import Accuracy, accuracy, replay
+from tests.support.ardupilot import (
     ARDUPILOT_ENV,
     CompanionProcess,
     RealOperator,
@@ -87,17 +90,11 @@ from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
     _set_parent_death_signal,
     ardupilot_binary,
 )
-from nav_sim_rig import BEACONS as RIG_BEACONS  # noqa: E402
-from nav_sim_rig import LAT, LON, SERIAL  # noqa: E402
-from nav_sim_rig import mission_text as rig_mission  # noqa: E402
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from tests.support.nav_sim_rig import BEACONS as RIG_BEACONS
+from tests.support.nav_sim_rig import LAT, LON, SERIAL
+from tests.support.nav_sim_rig import mission_text as rig_mission
 
-from mavhelm.companion.alog import read_alog  # noqa: E402
-from mavhelm.core.bus import Message  # noqa: E402
-from mavhelm.core.geodesy import Origin  # noqa: E402
-from mavhelm.core.mission import parse_mission  # noqa: E402
-from mavhelm.nav.replay import Accuracy, accuracy, replay  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = LAT, LON                  # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
 SPEEDUP = 5                            # 10 starves the companion on 2 cores
@@ -164,7 +161,7 @@ INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
 
 
 def mission_text(nav: str, serial: str = "", thrust: float = 60.0) -> str:
-    """The simulator tests' box patrol (tests/nav_sim_rig.py), with SIMSTATE streamed to the
+    """The simulator tests' box patrol (tests/support/nav_sim_rig.py), with SIMSTATE streamed to the
     companion: the truth every figure here is scored against."""
     return rig_mission(serial, nav, thrust=thrust, imavlink="    Stream      = SIMSTATE@10\n")
 

@@ -53,7 +53,7 @@ Lead 5).
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
-``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python benchmarks/bench_tracking.py``
+``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python -m benchmarks.bench_tracking``
 (``--only calm,wind,sim,exact`` and ``--tasks Survey,TrackLines`` pick what to run).
 """
 
@@ -67,23 +67,21 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
+from mavhelm.core.geodesy import Origin
+from mavhelm.core.mission import parse_mission
+from mavhelm.demo.harness import SimulatedRun
+from mavhelm.tasks.geometry import Point2, lawnmower, track_position
+from tests.support.ardupilot import (
     ARDUPILOT_ENV,
     CompanionProcess,
     RealOperator,
     RealSitl,
     ardupilot_binary,
 )
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from mavhelm.core.geodesy import Origin  # noqa: E402
-from mavhelm.core.mission import parse_mission  # noqa: E402
-from mavhelm.demo.harness import SimulatedRun  # noqa: E402
-from mavhelm.tasks.geometry import Point2, lawnmower, track_position  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = 56.4120, -5.4760          # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
 SPEEDUP = 10                           # not more: the companion must keep up

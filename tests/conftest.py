@@ -20,7 +20,7 @@ from mavhelm.core.mission import Block, Entry
 from mavhelm.tasks.base import NavState
 
 if TYPE_CHECKING:
-    from sitl_rig import Rig
+    from tests.support.sitl_rig import Rig
 
 
 def _task_block(kind: str, *pairs: tuple[str, str], file: str = "t.moos",
@@ -62,7 +62,9 @@ def nav_at() -> Callable[..., NavState]:
 @pytest.fixture
 def rig() -> Iterator[Rig]:
     """A default simulator rig (three TCP ports, fast start), closed after the test."""
-    from sitl_rig import Rig  # imported here: only the simulator tests pay for the simulator
+    from tests.support.sitl_rig import (
+        Rig,  # imported here: only the simulator tests pay for the simulator
+    )
 
     r = Rig()
     yield r
@@ -75,7 +77,7 @@ def real_sitl(tmp_path) -> Iterator[Callable[..., object]]:
     ``ardupilot.RealSitl`` (the real ArduPilot binary named by MAVHELM_ARDUPILOT) in its own
     folder under tmp_path; every one started is stopped after the test. Skips when
     MAVHELM_ARDUPILOT is unset; fails when it is set but wrong."""
-    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+    from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None:

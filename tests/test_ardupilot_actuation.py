@@ -10,7 +10,7 @@ autopilot itself (RC_CHANNELS, SERVO_OUTPUT_RAW, SIMSTATE ground truth, all stam
 autopilot seconds; wall-clock bounds only guard against a hang. Measured figures are printed
 (run with ``-s``).
 
-Needs MAVHELM_ARDUPILOT (see tests/ardupilot.py); skips without it.
+Needs MAVHELM_ARDUPILOT (see tests/support/ardupilot.py); skips without it.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ import time
 from pathlib import Path
 
 import pytest
-from ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, CompanionProcess, RealOperator
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.bus import Message
+from tests.support.ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, CompanionProcess, RealOperator
 
 # real_sitl: fixture in conftest.py
 

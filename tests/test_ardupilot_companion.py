@@ -13,7 +13,7 @@ while its helm is offline, so those two run the real CLI through a small launche
 posts ``TEST_TICK`` (stamped with the tick's own time) at the start of every tick: postings that
 follow a ``TEST_TICK`` in the .alog, up to the next one, were made in that tick.
 
-Needs MAVHELM_ARDUPILOT (see tests/ardupilot.py); skips without it.
+Needs MAVHELM_ARDUPILOT (see tests/support/ardupilot.py); skips without it.
 """
 
 from __future__ import annotations
@@ -30,7 +30,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
-from ardupilot import (
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.core.bus import Message
+from tests.support.ardupilot import (
     CompanionProcess,
     RealOperator,
     _candidates,
@@ -39,9 +42,6 @@ from ardupilot import (
     instance_ports,
     truth_track,
 )
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
-from mavhelm.core.bus import Message
 
 # real_sitl: fixture in conftest.py
 

@@ -251,7 +251,7 @@ RANGEFINDERS = {"RNGFND1_TYPE": 100, "RNGFND1_ORIENT": 25,   # SITL rangefinder,
 
 @pytest.mark.slow
 def test_real_sitl_rangefinders_and_truth_become_bus_variables(real_sitl) -> None:
-    from ardupilot import RealOperator
+    from tests.support.ardupilot import RealOperator
 
     sitl = real_sitl(model="rover", speedup=10, params=RANGEFINDERS)
     mission = parse_mission(SITL_MISSION.format(port=sitl.ports.serial1), "sitl.moos")

@@ -1,6 +1,6 @@
 """`mavhelm sim` against the real ArduPilot Rover SITL: one scenario, both sides, every answer.
 
-The scenario (tests/conformance.py) runs once per side per module: the real binary at
+The scenario (tests/support/conformance.py) runs once per side per module: the real binary at
 ``--speedup 10`` (about 8 s of wall time; skipped without MAVHELM_ARDUPILOT) and the simulator
 in lockstep (about 2 s). Any difference beyond tolerance that docs/sim-differences.md does not
 list fails. The sim-only tests pin the measured facts so they hold without the binary too.
@@ -13,7 +13,9 @@ import time
 from typing import Any
 
 import pytest
-from conformance import (
+
+from mavhelm.sitl.flat_earth import Origin
+from tests.support.conformance import (
     DIFFERENCES_DOC,
     Difference,
     RealSide,
@@ -24,15 +26,13 @@ from conformance import (
     unaccepted,
 )
 
-from mavhelm.sitl.flat_earth import Origin
-
 HOME = (56.4120, -5.4760, 0, 90)
 CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
 
 
 @pytest.fixture(scope="module")
 def sim_obs() -> dict[str, Any]:
-    from sitl_rig import Rig
+    from tests.support.sitl_rig import Rig
 
     t0 = time.monotonic()
     rig = Rig(variant="rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
@@ -47,7 +47,7 @@ def sim_obs() -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def real_obs(tmp_path_factory) -> dict[str, Any]:
-    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+    from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None:

@@ -11,9 +11,9 @@ import sys
 import time
 
 import pytest
-from interop_helpers import SimProcess
 
 from mavhelm.companion.alog import read_alog
+from tests.support.interop_helpers import SimProcess
 
 pytestmark = pytest.mark.slow
 

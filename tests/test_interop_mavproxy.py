@@ -18,8 +18,9 @@ import threading
 import time
 
 import pytest
-from interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
 from pymavlink import mavutil
+
+from tests.support.interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
 
 pytestmark = pytest.mark.slow
 

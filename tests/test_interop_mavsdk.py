@@ -25,10 +25,10 @@ import math
 import time
 
 import pytest
-from interop_helpers import Companion, RealtimeSim, SimProcess, armed, wait_until
 from pymavlink import mavutil
 
 from mavhelm.core.geodesy import Origin
+from tests.support.interop_helpers import Companion, RealtimeSim, SimProcess, armed, wait_until
 
 pytestmark = pytest.mark.slow
 

@@ -21,7 +21,6 @@ import threading
 import time
 
 import pytest
-from interop_helpers import REPO, Companion, SimProcess, _child_env, wait_until
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.remote import (
@@ -30,6 +29,7 @@ from mavhelm.companion.remote import (
     parse_ids,
     render,
 )
+from tests.support.interop_helpers import REPO, Companion, SimProcess, _child_env, wait_until
 
 AP = (1, 1)
 COMPANION = (1, 191)

@@ -729,7 +729,7 @@ def test_a_flooded_pty_never_holds_up_the_tick() -> None:
 def test_mavhelm_sim_sensors_read_by_the_instruments(tmp_path) -> None:
     """The real command: its printed ptys read by four readers configured as a boat's would
     be; values near the simulator's truth (at home, heading 90°, 20 m of water, still)."""
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     scenario = tmp_path / "noisy.scn"
     scenario.write_text("seed = 3\n"

@@ -1,7 +1,7 @@
 """How `mavhelm sim --model motorboat` brakes under its autopilot, against the real SITL.
 
-The script (tests/braking.py): armed in GUIDED, drive straight at 1.6 m/s, then at 4 m/s, with
-a refreshed SET_POSITION_TARGET_LOCAL_NED velocity, and stop each way ArduPilot stops a boat:
+The script (tests/support/braking.py): armed in GUIDED, drive straight at 1.6 m/s, then at 4 m/s,
+with a refreshed SET_POSITION_TARGET_LOCAL_NED velocity, and stop each way ArduPilot stops a boat:
 
 - ``timeout``: the target is no longer refreshed; after 3 s "target not received last 3secs,
   stopping" and the boat loiters at its stopping point (ModeGuided::update → start_loiter →
@@ -24,7 +24,8 @@ import time
 from pathlib import Path
 
 import pytest
-from braking import (
+
+from tests.support.braking import (
     CALM,
     CASES,
     HOME,
@@ -36,7 +37,7 @@ from braking import (
     sim_rig,
     write_stock_parms,
 )
-from braking import run_braking as _run
+from tests.support.braking import run_braking as _run
 
 # The real ArduRover 4.8-dev SITL (../shared/ardupilot/ardurover, --model motorboat, --defaults
 # rover.parm,motorboat.parm + SIM_WIND_SPD 0, SIM_WAVE_ENABLE 0, --speedup 10), measured with

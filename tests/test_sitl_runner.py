@@ -223,9 +223,9 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
     import signal
 
     import serial
-    from interop_helpers import SimProcess
 
     from mavhelm.sitl.flat_earth import Origin
+    from tests.support.interop_helpers import SimProcess
 
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
         paths: dict[str, str] = {}
@@ -264,7 +264,7 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
 
 
 def test_mavhelm_sim_starts_at_the_missions_origin():
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     mission = Path(__file__).resolve().parents[1] / "examples" / "demo.moos"
     sim = SimProcess("--mission", str(mission))

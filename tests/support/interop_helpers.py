@@ -28,7 +28,7 @@ from mavhelm.core.clock import WallClock
 from mavhelm.sitl.simulator import Simulator
 
 STEP = 0.01  # wall seconds between simulator steps (mavhelm sim's runner uses the same tick)
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 def wait_until(pred: Callable[[], Any], timeout: float, what: str,

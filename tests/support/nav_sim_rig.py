@@ -32,6 +32,18 @@ LBL_BEACONS = (Beacon("1", -150.0, -150.0, -20.0, 0.05), Beacon("2", 300.0, -150
                Beacon("3", 60.0, 300.0, -20.0, 0.15))
 """Seabed transponders, 20 m down, with their turn-around times (s)."""
 
+DEAD_RECKONING = """
+    X = GPS @ 2, EKF @ 2
+    Y = GPS @ 2, EKF @ 2
+    Heading = HDG @ 1, INS @ 1
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
+    SENSOR_BODY_VEL    = DVL -> dvl @ 0,0,-0.3 ~ 0.02, 0.02
+    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
+"""
+"""The box patrol's pNav on GPS, compass, DVL and gyro (the EKF dead-reckons through a GPS
+outage): the simulator test's and the nav benchmark's."""
+
 MISSION = """
 LatOrigin  = {lat}
 LongOrigin = {lon}

@@ -292,14 +292,14 @@ class RealBrakeSide:
     """The real SITL: the ground station on SERIAL0 (its clock starts then)."""
 
     def __init__(self, sitl: Any) -> None:
-        from ardupilot import connect_tcp
+        from tests.support.ardupilot import connect_tcp
 
         self.sitl = sitl
         self.conn = connect_tcp(sitl.ports.serial0, source_system=GCS[0],
                                 source_component=GCS[1])
 
     def pump(self) -> list[Any]:
-        from ardupilot import read_available
+        from tests.support.ardupilot import read_available
 
         select.select([self.conn.port], [], [], 0.005)
         return read_available(self.conn)
@@ -336,9 +336,8 @@ def write_stock_parms(folder: Path) -> Path:
 def sim_rig(params_dir: Any, *, fast_start: bool = True, **params: float) -> Any:
     """A Rig running ``--model motorboat --defaults rover.parm,motorboat.parm`` (from
     ``params_dir``), calm, at the real SITL's home and heading."""
-    from sitl_rig import Rig
-
     from mavhelm.sitl.flat_earth import Origin
+    from tests.support.sitl_rig import Rig
 
     files = [str(params_dir / "rover.parm"), str(params_dir / "motorboat.parm")]
     return Rig(model="motorboat", defaults=files, params={**CALM, **params},

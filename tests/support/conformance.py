@@ -28,7 +28,7 @@ from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import ardupilotmega as M
 
-DIFFERENCES_DOC = Path(__file__).resolve().parents[1] / "docs" / "sim-differences.md"
+DIFFERENCES_DOC = Path(__file__).resolve().parents[2] / "docs" / "sim-differences.md"
 GCS = (255, 190)
 COMPANION = (254, 191)
 WALL_LIMIT_S = 120.0  # a side that stops advancing its clock fails the run
@@ -564,7 +564,7 @@ class RealSide:
     SERIAL1 once it opens."""
 
     def __init__(self, sitl: Any) -> None:
-        from ardupilot import connect_tcp
+        from tests.support.ardupilot import connect_tcp
 
         self.sitl = sitl
         self.gcs = connect_tcp(sitl.ports.serial0, source_system=GCS[0],
@@ -574,7 +574,7 @@ class RealSide:
                                      source_component=COMPANION[1])
 
     def pump(self) -> list[tuple[str, Any]]:
-        from ardupilot import read_available
+        from tests.support.ardupilot import read_available
 
         select.select([self.gcs.port, self.companion.port], [], [], 0.005)
         return ([("gcs", m) for m in read_available(self.gcs)]
