@@ -23,7 +23,15 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.bus import Message
-from tests.support.ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, CompanionProcess, RealOperator
+from tests.support.ardupilot import (
+    GCS_COMPONENT_ID,
+    GCS_SYSTEM_ID,
+    CompanionProcess,
+    RealOperator,
+    wait_autopilot,
+    wait_watching,
+)
+from tests.support.ardupilot import wait_line as wait_line_read
 
 # real_sitl: fixture in conftest.py
 
@@ -175,10 +183,6 @@ class Operator(RealOperator):
             self.servos.append((msg.time_usec // 1000,
                                 tuple(getattr(msg, f"servo{i}_raw") for i in range(1, 17))))
 
-    def request_interval(self, name: str, hz: float) -> None:
-        self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
-                     getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), 1e6 / hz)
-
     def refresh_gaps_ms(self, since_ms: int) -> list[int]:
         """Autopilot ms between the switch overrides sent since ``since_ms``."""
         times = [t for t, _ in self.switch_sent if t is not None and t >= since_ms]
@@ -187,8 +191,7 @@ class Operator(RealOperator):
 
 def start_operator(sitl) -> Operator:
     op = Operator(sitl.ports.serial0, sitl.speedup)
-    op.request_streams(STREAM_HZ)
-    op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
+    op.wait_first_heartbeat(STREAM_HZ)
     op.request_interval("RC_CHANNELS", RC_HZ)       # asked before it runs, this is ignored
     op.request_interval("SERVO_OUTPUT_RAW", RC_HZ)
     return op
@@ -204,35 +207,11 @@ def companion(mission_text: str, port: int, folder: Path) -> CompanionProcess:
     return CompanionProcess(mission, port, folder / "logs")
 
 
-def wait_for(op: Operator, comp: CompanionProcess, predicate, what: str,
-             timeout_s: float = EVENT_WALL_S) -> None:
-    """Poll the operator until ``predicate()``; fail at once if the companion exited."""
-    def check() -> bool:
-        if not comp.running():
-            raise AssertionError(f"the companion exited (code {comp.proc.returncode}) while "
-                                 f"waiting for {what}:\n{comp.output()}")
-        return bool(predicate())
-    try:
-        op.wait_until(check, timeout_s, what)
-    except TimeoutError as exc:
-        raise AssertionError(f"{exc}\ncompanion console:\n{comp.output()}") from None
-
-
 def wait_line(op: Operator, comp: CompanionProcess, fragment: str, nth: int = 1) -> int:
     """Wait for the companion's ``nth`` console line containing ``fragment``; returns the
     operator's autopilot ms when it was seen."""
-    wait_for(op, comp, lambda: len(comp.find_all(fragment)) >= nth,
-             f"companion line {fragment!r} #{nth}")
+    wait_line_read(op, comp, fragment, nth, EVENT_WALL_S)
     assert op.boot_ms is not None
-    return op.boot_ms
-
-
-def wait_autopilot(op: Operator, comp: CompanionProcess, seconds: float) -> int:
-    """Let ``seconds`` of the autopilot's clock pass; returns the autopilot ms reached."""
-    assert op.boot_ms is not None
-    until = op.boot_ms + int(seconds * 1000)
-    wait_for(op, comp, lambda: op.boot_ms >= until, f"{seconds:g} autopilot s",
-             timeout_s=5.0 + 3.0 * seconds)
     return op.boot_ms
 
 
@@ -426,8 +405,8 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
             wait_line(op, comp, "helm offline: autopilot disarmed")
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / sitl.speedup)
             wait_line(op, comp, "helm ONLINE")
-            wait_for(op, comp, lambda: op.servos and op.servos[-1][1][8] == 1700,
-                     "SERVO_OUTPUT_RAW servo9_raw 1700")
+            wait_watching(op, comp, lambda: op.servos and op.servos[-1][1][8] == 1700,
+                          EVENT_WALL_S, "SERVO_OUTPUT_RAW servo9_raw 1700")
             wait_autopilot(op, comp, 5.0)
         finally:
             code9 = comp.stop()

@@ -29,18 +29,13 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
+from tests.support.ports import free_udp_port
 
 ORIGIN = Origin(56.4120, -5.4760)
 DOWN, FORWARD, UP = (mavlink.MAV_SENSOR_ROTATION_PITCH_270, mavlink.MAV_SENSOR_ROTATION_NONE,
                      mavlink.MAV_SENSOR_ROTATION_PITCH_90)
 SENSOR_NAMES = ("AP_ALTITUDE", "AP_DISTANCE_", "WHEEL_VX_BODY", "TRUTH_", "MAVLINK_ERROR",
                 "MAVLINK_BAD_PACKETS")
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Rig:

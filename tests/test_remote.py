@@ -29,7 +29,8 @@ from mavhelm.companion.remote import (
     parse_ids,
     render,
 )
-from tests.support.interop_helpers import REPO, Companion, SimProcess, _child_env, wait_until
+from tests.support.interop_helpers import REPO, Companion, SimProcess, _child_env
+from tests.support.waiting import wait_for
 
 AP = (1, 1)
 COMPANION = (1, 191)
@@ -583,8 +584,8 @@ class PtyConsole:
             found = rx.search(self.text()[since:])
             return found.group(0) if found else None
 
-        return wait_until(seen, timeout, f"the console to show {pattern!r}",
-                          lambda: "\n" + self.screen())
+        return wait_for(seen, timeout, f"the console to show {pattern!r}",
+                        lambda: "\n" + self.screen())
 
     def press(self, key: str) -> int:
         at = self.mark()

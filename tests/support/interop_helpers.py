@@ -5,8 +5,8 @@ every 10 ms by a daemon thread (``RealtimeSim``, which lets a test read the simu
 or as the real ``mavhelm sim`` command in a subprocess (``SimProcess``). Both listen on ephemeral
 loopback ports only, so they never collide with a ``mavhelm sim`` someone is running.
 
-Every wait here has a deadline and fails with a message that says what was awaited and what was
-seen instead; every process started here is killed on the way out.
+Every wait here is ``waiting.wait_for`` (a deadline, and a failure that says what it saw);
+every process started here is killed on the way out.
 """
 
 from __future__ import annotations
@@ -26,23 +26,10 @@ from pymavlink import mavutil
 
 from mavhelm.core.clock import WallClock
 from mavhelm.sitl.simulator import Simulator
+from tests.support.waiting import wait_for
 
 STEP = 0.01  # wall seconds between simulator steps (mavhelm sim's runner uses the same tick)
 REPO = Path(__file__).resolve().parents[2]
-
-
-def wait_until(pred: Callable[[], Any], timeout: float, what: str,
-               seen: Callable[[], Any] | None = None, period: float = 0.05) -> Any:
-    """Poll pred() until it is truthy (returning its value) or fail after timeout seconds."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = pred()
-        if value:
-            return value
-        if time.monotonic() >= deadline:
-            extra = f"; last seen: {seen()!r}" if seen is not None else ""
-            raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}{extra}")
-        time.sleep(period)
 
 
 class RealtimeSim:
@@ -93,7 +80,7 @@ class RealtimeSim:
             with self.lock:
                 return f"mode={self.sim.mode} armed={self.sim.armed}"
 
-        return wait_until(probe, timeout, what, seen)
+        return wait_for(probe, timeout, what, seen)
 
     def close(self) -> None:
         self._stop.set()
@@ -235,8 +222,8 @@ class MavproxyProcess:
                                      f"waiting for {pattern!r}; output:\n{self.output.tail()}")
             return None
 
-        return wait_until(find, timeout, f"MAVProxy to print {pattern!r}",
-                          lambda: "\n" + self.output.tail())
+        return wait_for(find, timeout, f"MAVProxy to print {pattern!r}",
+                        lambda: "\n" + self.output.tail())
 
     def close(self) -> None:
         if self.proc.poll() is None and self.proc.stdin is not None:
