@@ -163,7 +163,7 @@ INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
 def mission_text(nav: str, serial: str = "", thrust: float = 60.0) -> str:
     """The simulator tests' box patrol (tests/support/nav_sim_rig.py), with SIMSTATE streamed to the
     companion: the truth every figure here is scored against."""
-    return rig_mission(serial, nav, thrust=thrust, imavlink="    Stream      = SIMSTATE@10\n")
+    return rig_mission(serial, nav, thrust=thrust, imavlink=[("Stream", "SIMSTATE@10")])
 
 
 # ---- the ground station -------------------------------------------------------------------------

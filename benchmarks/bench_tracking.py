@@ -80,6 +80,8 @@ from tests.support.ardupilot import (
     RealSitl,
     ardupilot_binary,
 )
+from tests.support.mission import NAV_AP_FALLBACK
+from tests.support.mission import mission_text as standard_mission
 
 ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = 56.4120, -5.4760          # the mission's origin = the SITL's home
@@ -119,45 +121,7 @@ TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead
 DEFAULTS = Helm("product defaults: MaxTurnRate 45, YAW_PID_KP 0.5, Lead 5", yaw_kp=0.5,
                 lead=5.0)
 
-MISSION = """
-LatOrigin  = {lat}
-LongOrigin = {lon}
 
-ProcessConfig = iMAVLink
-{{
-    OnlineModes = GUIDED
-    MaxTurnRate = {max_turn_rate:g}
-{streams}}}
-
-ProcessConfig = pNav
-{{
-    X     = GPS @ 2.0, AP @ 2.0
-    Y     = GPS @ 2.0, AP @ 2.0
-    Yaw   = INS @ 1.0, AP @ 2.0
-    Speed = GPS @ 2.0, AP @ 2.0
-}}
-
-ProcessConfig = pHelm
-{{
-    AppTick    = {app_tick:g}
-    MAXRUDDER  = 20
-    MAXTHRUST  = 100
-    YAW_PID_KP = {yaw_kp:g}
-{tasks}
-    Task = OverallTimeOut
-    {{
-        Name       = Clock
-        TimeOut    = 400
-        FinishFlag = EndMission
-    }}
-
-    Task = EndMission
-    {{
-        Name      = AllStop
-        StartFlag = EndMission
-    }}
-}}
-"""
 
 SURVEY = f"""
     Task = Survey
@@ -207,12 +171,16 @@ TASKS = {"Survey": SURVEY, "TrackLines": chain_tasks()}
 
 
 def mission_text(kind: str, helm: Helm) -> str:
-    streams = "".join(f"    Stream      = {name}@{helm.stream_hz:g}\n"
-                      for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
-                      if helm.stream_hz)
-    return MISSION.format(lat=LAT0, lon=LON0, streams=streams, app_tick=helm.app_tick,
-                          max_turn_rate=helm.max_turn_rate, yaw_kp=helm.yaw_kp,
-                          tasks=TASKS[kind].format(lead=helm.lead))
+    streams = [("Stream", f"{name}@{helm.stream_hz:g}")
+               for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
+               if helm.stream_hz]
+    return standard_mission(
+        TASKS[kind].format(lead=helm.lead), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
+        imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
+                  *streams],
+        helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,
+              "YAW_PID_KP": f"{helm.yaw_kp:g}"},
+        overall_timeout=400, clock_name="Clock", end_name="AllStop")
 
 
 # ---- the figures -------------------------------------------------------------------------------

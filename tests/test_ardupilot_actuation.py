@@ -32,6 +32,7 @@ from tests.support.ardupilot import (
     wait_watching,
 )
 from tests.support.ardupilot import wait_line as wait_line_read
+from tests.support.mission import mission_text
 
 # real_sitl: fixture in conftest.py
 
@@ -49,83 +50,35 @@ SWITCH_HIGH, SWITCH_LOW = 1900, 1100
 HAND_OVER_WALL_S = 60.0      # "it did not hang" guards, wall seconds
 EVENT_WALL_S = 30.0
 
-# The heading gains in RC_MISSION: under rc_override RUDDER/MAXRUDDER is the steering servo's
+# The heading gains in rc_mission: under rc_override RUDDER/MAXRUDDER is the steering servo's
 # whole throw, with no turn-rate limit and no ArduPilot rate loop (unlike guided, where full
 # rudder is MaxTurnRate). The SITL motorboat at 60 % throttle then turns at a few hundred deg/s
 # at full steering, and the default YAW_PID_KP 0.5 / KD 0.2 limit-cycle bang-bang between 1000
 # and 2000 us, the heading swinging about 0..190 deg (measured); KP 0.2, KD 0 turns the boat
 # from north and settles on 89 deg within about 2 s. The gains are the mission's, as a user's.
-RC_MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Actuation     = rc_override
-    SystemID      = {sysid}
-    EngageChannel = 7
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-    YAW_PID_KP = 0.2
-    YAW_PID_KD = 0
-    Task = ConstantHeading
-    {{
-        Name = East
-        Heading = 90
-        Thrust = 60
-        TimeOut = NEVER
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+def rc_mission(sysid: int) -> str:
+    """East on rc_override, the companion as MAVLink system ``sysid``."""
+    return mission_text("""
+        Task = ConstantHeading
+        {
+            Name = East
+            Heading = 90
+            Thrust = 60
+            TimeOut = NEVER
+        }""", imavlink={"Actuation": "rc_override", "SystemID": sysid, "EngageChannel": 7},
+        helm={"YAW_PID_KP": 0.2, "YAW_PID_KD": 0})
 
-SERVO_MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Servo = WINCH@{output}:1100-1900
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-    Task = SetActuator
-    {{
-        Name = Winch
-        Actuator = WINCH
-        Value = 50
-        TimeOut = NEVER
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+
+def servo_mission(output: int) -> str:
+    """A winch held at 50 % on servo ``output``."""
+    return mission_text("""
+        Task = SetActuator
+        {
+            Name = Winch
+            Actuator = WINCH
+            Value = 50
+            TimeOut = NEVER
+        }""", imavlink={"Servo": f"WINCH@{output}:1100-1900"})
 
 
 # -- the ground station -------------------------------------------------------------------------
@@ -199,11 +152,11 @@ def start_operator(sitl) -> Operator:
 
 # -- the companion process ----------------------------------------------------------------------
 
-def companion(mission_text: str, port: int, folder: Path) -> CompanionProcess:
+def companion(text: str, port: int, folder: Path) -> CompanionProcess:
     """The mission written to ``folder`` and ``mavhelm run`` started on it."""
     folder.mkdir(parents=True, exist_ok=True)
     mission = folder / "mission.moos"
-    mission.write_text(mission_text)
+    mission.write_text(text)
     return CompanionProcess(mission, port, folder / "logs")
 
 
@@ -259,7 +212,7 @@ def test_rc_override_drives_in_manual_on_the_switch_and_releases_at_once(real_si
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = companion(RC_MISSION.format(sysid=GCS_SYSTEM_ID), sitl.ports.serial1,
+        comp = companion(rc_mission(GCS_SYSTEM_ID), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -361,7 +314,7 @@ def test_rc_override_refuses_a_mav_gcs_sysid_mismatch(real_sitl, tmp_path) -> No
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = companion(RC_MISSION.format(sysid=1), sitl.ports.serial1,
+        comp = companion(rc_mission(1), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -399,7 +352,7 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
         # WINCH on the free output 9
-        comp = companion(SERVO_MISSION.format(output=9), sitl.ports.serial1,
+        comp = companion(servo_mission(9), sitl.ports.serial1,
                                 tmp_path / "winch9")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -414,7 +367,7 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
         # WINCH on output 1, the motorboat's steering: refused by ArduPilot, reported once
         start1 = op.boot_ms
         assert start1 is not None
-        comp = companion(SERVO_MISSION.format(output=1), sitl.ports.serial1,
+        comp = companion(servo_mission(1), sitl.ports.serial1,
                                 tmp_path / "winch1")
         try:
             wait_line(op, comp, "helm ONLINE")
