@@ -4,7 +4,6 @@ NAV_* ahead of the autopilot's own (spec 2.1), all as separate processes on the 
 
 from __future__ import annotations
 
-import re
 import signal
 import subprocess
 import sys
@@ -30,14 +29,7 @@ def serial_mission(port: int, gps: str, heading: str) -> str:
 
 def test_serial_gps_and_heading_feed_nav_through_mavhelm_run(tmp_path):
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while not {"nmea_gps", "heading"} <= set(paths):
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading")
         mission = tmp_path / "serial.moos"
         mission.write_text(serial_mission(sim.ports[1], paths["nmea_gps"], paths["heading"]))
         logs = tmp_path / "logs"

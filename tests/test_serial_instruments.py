@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import time
 import tty
 from dataclasses import dataclass, field
@@ -737,14 +736,7 @@ def test_mavhelm_sim_sensors_read_by_the_instruments(tmp_path) -> None:
                         "serial_truncate always port=heading prob=0.2\n")
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90",
                     "--beacons", "1:100,0,-10;2:0,-150,-10", "--scenario", str(scenario)) as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while len(paths) < 5:
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading", "depth", "dvl", "lbl")
         assert set(paths) == {"nmea_gps", "heading", "depth", "dvl", "lbl"}
         clock = SimClock(time.monotonic())
         bus = Bus(clock)

@@ -219,7 +219,6 @@ def _gga_position(line: bytes) -> tuple[float, float] | None:
 def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
     """The real command: read the printed pty path with pyserial, as a companion would, and
     get valid GGA at the --home position."""
-    import re
     import signal
 
     import serial
@@ -228,14 +227,7 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
     from tests.support.interop_helpers import SimProcess
 
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while len(paths) < 4:
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading", "depth", "dvl")
         assert set(paths) == {"nmea_gps", "heading", "depth", "dvl"}
         fixes = []
         with serial.Serial(paths["nmea_gps"], 4800, timeout=0.5) as gps:

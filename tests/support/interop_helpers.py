@@ -170,6 +170,20 @@ class SimProcess:
             self.close()
             raise
 
+    SENSOR_LINE = re.compile(r"mavhelm sim: (\w+) on (/dev/\S+) \(")
+
+    def sensor_paths(self, *names: str, timeout: float = 10.0) -> dict[str, str]:
+        """The pseudo-terminals ``--sensors`` printed, {sensor: path}, read until every one of
+        ``names`` is among them (fails after ``timeout`` with the output so far)."""
+        paths: dict[str, str] = {}
+        deadline = time.monotonic() + timeout
+        while not set(names) <= set(paths):
+            line = self.output.next_line(deadline - time.monotonic())
+            assert line is not None, self.output.text()
+            if m := self.SENSOR_LINE.match(line):
+                paths[m.group(1)] = m.group(2)
+        return paths
+
     def close(self) -> None:
         _stop_process(self.proc)
 
