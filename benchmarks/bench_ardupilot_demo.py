@@ -14,22 +14,18 @@ Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
 
 from __future__ import annotations
 
-import signal
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
-from mavhelm.companion.alog import read_alog
 from tests.support.ardupilot import (
     ARDUPILOT_ENV,
+    CompanionProcess,
     RealOperator,
     RealSitl,
-    _set_parent_death_signal,
     ardupilot_binary,
 )
 
@@ -55,48 +51,26 @@ def run(binary: Path, tmp: Path) -> int:
             RealOperator(sitl.ports.serial0) as op:
         op.request_streams(4)
         sitl.wait_listening(sitl.ports.serial1)
-        log_dir = tmp / "companion"
-        log_dir.mkdir()
-        lines: list[tuple[float, str]] = []
-        comp = subprocess.Popen(
-            [sys.executable, "-m", "mavhelm.cli", "run", str(DEMO), "--connect",
-             f"tcp:127.0.0.1:{sitl.ports.serial1}", "--clock", "autopilot",
-             "--log-dir", str(log_dir)],
-            cwd=log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-
-        def read() -> None:
-            assert comp.stdout is not None
-            for line in comp.stdout:
-                lines.append((time.monotonic(), line.rstrip("\n")))
-
-        reader = threading.Thread(target=read, daemon=True)
-        reader.start()
+        comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp / "companion")
 
         def line_wall(fragment: str) -> float | None:
-            return next((t for t, line in list(lines) if fragment in line), None)
+            hit = comp.find(fragment)
+            return hit[0] if hit is not None else None
 
         try:
             op.hand_over("GUIDED", timeout_s=60.0, retry_s=1.0 / SPEEDUP)
-            op.wait_until(lambda: line_wall("MISSION ENDED") is not None
-                          or comp.poll() is not None, MISSION_WALL_S, "MISSION ENDED")
+            op.wait_until(lambda: line_wall("MISSION ENDED") is not None or not comp.running(),
+                          MISSION_WALL_S, "MISSION ENDED")
             ended_wall = line_wall("MISSION ENDED")
             ended_boot = op.boot_ms
         finally:
-            comp.send_signal(signal.SIGTERM)
-            try:
-                comp.wait(10.0)
-            except subprocess.TimeoutExpired:
-                comp.kill()
-                comp.wait()
-            reader.join(5.0)
+            comp.stop()
         if ended_wall is None:
             print("bench_ardupilot_demo: the companion exited before MISSION ENDED:")
-            print("\n".join(line for _, line in lines[-30:]))
+            print(comp.output(30))
             return 1
         online_wall = line_wall("helm ONLINE")
-        alog = read_alog(next(log_dir.glob("*.alog")))
+        alog = comp.alog()
 
     started = [m for m in alog if m.name == "TASK_STARTED"]
     ended = next(m for m in alog if m.name == "MISSION_ENDED")

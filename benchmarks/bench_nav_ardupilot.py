@@ -66,10 +66,8 @@ import contextlib
 import math
 import re
 import signal
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -87,12 +85,13 @@ from tests.support.ardupilot import (
     CompanionProcess,
     RealOperator,
     RealSitl,
-    _set_parent_death_signal,
     ardupilot_binary,
 )
 from tests.support.nav_sim_rig import BEACONS as RIG_BEACONS
 from tests.support.nav_sim_rig import LAT, LON, SERIAL
 from tests.support.nav_sim_rig import mission_text as rig_mission
+from tests.support.processes import ConsoleProcess
+from tests.support.waiting import wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = LAT, LON                  # the mission's origin = the SITL's home
@@ -519,54 +518,32 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
 
 # ---- experiment 2: GPS off for 120 s ------------------------------------------------------------
 
-class Instruments:
-    """``mavhelm instruments`` in its own process; its console lines collected."""
+class Instruments(ConsoleProcess):
+    """``mavhelm instruments`` in its own process; its console lines collected (and logged)."""
 
     PORT_LINE = re.compile(r"mavhelm instruments: (\w+) on (/dev/pts/\d+)")
 
     def __init__(self, truth_port: int, log_path: Path) -> None:
         beacons = ";".join(f"{i}:{x:g},{y:g},{z:g}" for i, x, y, z in BEACONS)
-        self.cmd = [sys.executable, "-m", "mavhelm.cli", "instruments",
-                    "--truth", f"tcp:127.0.0.1:{truth_port}", "--origin", f"{LAT0},{LON0}",
-                    "--ranging", "radio", "--beacons", beacons]
-        self.log_path = log_path
-        self.lines: list[str] = []
-        self.proc = subprocess.Popen(
-            self.cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        with self.log_path.open("w") as f:
-            for line in self.proc.stdout:
-                self.lines.append(line.rstrip("\n"))
-                f.write(line)
-                f.flush()
+        super().__init__([sys.executable, "-m", "mavhelm.cli", "instruments",
+                          "--truth", f"tcp:127.0.0.1:{truth_port}", "--origin",
+                          f"{LAT0},{LON0}", "--ranging", "radio", "--beacons", beacons],
+                         log_path=log_path)
 
     def ports(self, timeout_s: float = 10.0) -> dict[str, str]:
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout_s:
-            found = dict(m.groups() for line in list(self.lines)
+        def found() -> dict[str, str] | None:
+            paths = dict(m.groups() for _, line in list(self.lines)
                          if (m := self.PORT_LINE.search(line)))
-            if all(name in found for name in INSTRUMENTS):
-                return found
-            if self.proc.poll() is not None:
-                break
-            time.sleep(0.05)
-        raise RuntimeError("mavhelm instruments printed no ports:\n" + "\n".join(self.lines))
+            if all(name in paths for name in INSTRUMENTS):
+                return paths
+            if not self.running():
+                raise RuntimeError("mavhelm instruments exited:\n" + self.output())
+            return None
+        return wait_for(found, timeout_s, "mavhelm instruments' ports", self.output,
+                        error=RuntimeError)
 
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(5.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
+    def stop(self, sig: int = signal.SIGINT, grace_s: float = 5.0) -> int:
+        return super().stop(sig, grace_s)
 
 
 def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
@@ -697,7 +674,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   mode: {'GUIDED, armed throughout' if not changed else changed}; true speed "
           f"during the outage mean {true_speed.mean():.1f} m/s, max {true_speed.max():.1f} m/s "
           f"(Thrust {args.outage_thrust:g})")
-    velocity = [line for line in inst.lines if "velocity from" in line]
+    velocity = inst.find_all("velocity from")
     if velocity:
         print(f"   instruments: {velocity[0].split(': ', 1)[1]}")
     if args.keep:

@@ -15,13 +15,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import threading
-import time
 
 import pytest
 from pymavlink import mavutil
 
 from tests.support.interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
 from tests.support.mission import mission_text
+from tests.support.waiting import wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -118,13 +118,9 @@ def test_the_documented_mavproxy_lines_reload_the_helm_and_post_a_remote_flag(tm
         reader.start()
 
         def wait_line(fragment: str, seconds: float) -> str:
-            deadline = time.monotonic() + seconds
-            while time.monotonic() < deadline:
-                found = [line for line in list(lines) if fragment in line]
-                if found:
-                    return found[-1]
-                time.sleep(0.05)
-            raise AssertionError(f"no {fragment!r} from the companion: {lines[-10:]}")
+            found = wait_for(lambda: [line for line in list(lines) if fragment in line],
+                             seconds, f"{fragment!r} from the companion", lambda: lines[-10:])
+            return found[-1]
 
         try:
             wait_line("link to tcp:127.0.0.1", 15)

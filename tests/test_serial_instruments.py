@@ -36,6 +36,7 @@ from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import Block, Entry, MissionError, parse_mission
 from mavhelm.sitl import nmea
+from tests.support.waiting import wait_for
 
 ORIGIN = Origin(50.1, -4.2)
 T0 = 1000.0
@@ -630,12 +631,12 @@ class Pty:
 def pump(app: SerialInstrument, clock: SimClock, until, timeout: float = 3.0,
          step: float = 0.05) -> None:
     """Tick (simulated time, real pty I/O) until ``until()`` or fail after timeout wall s."""
-    deadline = time.monotonic() + timeout
-    while not until():
-        assert time.monotonic() < deadline, "timed out"
+    def tick() -> None:
         clock.advance(step)
         app.iterate(clock.now())
         time.sleep(0.01)
+
+    wait_for(until, timeout, "the instrument's condition", pause=tick)
 
 
 def test_a_device_behind_a_symlink_vanishes_and_returns(tmp_path) -> None:

@@ -33,7 +33,6 @@ import socket
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -44,6 +43,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from tests.support.ground_station import GroundStation
+from tests.support.processes import PREEXEC, ConsoleProcess
 from tests.support.waiting import wait_for
 
 ARDUPILOT_ENV = "MAVHELM_ARDUPILOT"
@@ -162,14 +162,6 @@ def listening_ports(pid: int) -> set[int]:
                 if len(fields) > 9 and fields[3] == "0A" and fields[9] in inodes:
                     ports.add(int(fields[1].rsplit(":", 1)[1], 16))
     return ports
-
-
-def _set_parent_death_signal() -> None:  # pragma: no cover - runs in the child
-    """Ask Linux to SIGTERM the SITL if the test process dies without stopping it."""
-    with contextlib.suppress(Exception):
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
 
 
 class RealSitl:
@@ -292,7 +284,7 @@ class RealSitl:
         self.proc = subprocess.Popen(
             cmd, cwd=self.tmp_dir, stdin=subprocess.DEVNULL, stdout=self._log,
             stderr=subprocess.STDOUT,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
+            preexec_fn=PREEXEC)
         self.instance = instance
         self.ports = instance_ports(instance)
         deadline = self.started_at + self.ready_timeout_s
@@ -595,7 +587,7 @@ def truth_track(op: RealOperator, since_wall: float = 0.0,
             for boot, lat, lng, yaw in rows]
 
 
-class CompanionProcess:
+class CompanionProcess(ConsoleProcess):
     """``mavhelm run MISSION --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own
     process (or the same through ``launcher``, a command standing in for ``python -m
     mavhelm.cli``); its console lines are collected, with the wall time each was read."""
@@ -605,47 +597,9 @@ class CompanionProcess:
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
         head = launcher or [sys.executable, "-m", "mavhelm.cli"]
-        self.cmd = head + ["run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
-                           "--clock", "autopilot", "--log-dir", str(self.log_dir)]
-        self.lines: list[tuple[float, str]] = []
-        self.started_wall = time.monotonic()
-        self.proc = subprocess.Popen(
-            self.cmd, cwd=self.log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    def running(self) -> bool:
-        return self.proc.poll() is None
-
-    def find(self, fragment: str, nth: int = 1) -> tuple[float, str] | None:
-        """The ``nth`` console line containing ``fragment``: (wall time read, line)."""
-        hits = [(t, line) for t, line in list(self.lines) if fragment in line]
-        return hits[nth - 1] if len(hits) >= nth else None
-
-    def find_all(self, fragment: str) -> list[str]:
-        return [line for _, line in list(self.lines) if fragment in line]
-
-    def output(self, last: int = 40) -> str:
-        return "\n".join(line for _, line in list(self.lines)[-last:])
-
-    def stop(self) -> int:
-        """SIGTERM (its own pid), as systemd would; SIGKILL after 10 s. Returns the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
-        return self.proc.returncode
+        super().__init__(head + ["run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
+                                 "--clock", "autopilot", "--log-dir", str(self.log_dir)],
+                         cwd=self.log_dir)
 
     def alog(self) -> list:
         from mavhelm.companion.alog import read_alog
