@@ -29,13 +29,12 @@ from tests.support.ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary
 from tests.support.braking import (
     CALM,
     HOME,
-    RealBrakeSide,
-    SimBrakeSide,
     print_table,
     run_braking,
     sim_rig,
     write_stock_parms,
 )
+from tests.support.sides import RealSide, SimSide
 
 ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 10
@@ -56,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         t = time.monotonic()
         rig = sim_rig(params_dir, **(OWN_GAINS if args.own_gains else {}))
         try:
-            sim = run_braking(SimBrakeSide(rig))
+            sim = run_braking(SimSide(rig, 0.02, companion=False))
         finally:
             rig.close()
         print(f"mavhelm sim: {time.monotonic() - t:.1f} s wall", flush=True)
@@ -68,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
             t = time.monotonic()
             with RealSitl(Path(tmp) / "real", model="motorboat", speedup=SPEEDUP, home=HOME,
                           params=CALM, binary=binary) as sitl:
-                side = RealBrakeSide(sitl)
+                side = RealSide(sitl, companion=False)
                 try:
                     real = run_braking(side)
                 finally:

@@ -18,13 +18,12 @@ from mavhelm.sitl.flat_earth import Origin
 from tests.support.conformance import (
     DIFFERENCES_DOC,
     Difference,
-    RealSide,
-    SimSide,
     accepted_differences,
     compare,
     run_scenario,
     unaccepted,
 )
+from tests.support.sides import RealSide, SimSide
 
 HOME = (56.4120, -5.4760, 0, 90)
 CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
