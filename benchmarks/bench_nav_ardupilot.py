@@ -283,10 +283,8 @@ def hand_over(op: Operator, comp: CompanionProcess, speedup: float) -> None:
 
 
 def start_operator(sitl: RealSitl, speedup: float) -> Operator:
-    op = Operator(sitl.ports.serial0, heartbeat_s=1.0 / speedup)
-    op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
-    op.request_streams(4)     # GLOBAL_POSITION_INT, EKF_STATUS_REPORT, SIMSTATE at 4 Hz
-    return op
+    # GLOBAL_POSITION_INT, EKF_STATUS_REPORT, SIMSTATE at 4 Hz
+    return Operator(sitl.ports.serial0, heartbeat_s=1.0 / speedup).wait_first_heartbeat(4)
 
 
 # ---- reading the .alog --------------------------------------------------------------------------

@@ -37,7 +37,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import IO, NamedTuple
+from typing import IO, NamedTuple, Self
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -522,7 +522,7 @@ class RealOperator(GroundStation):
     def mav(self) -> mavlink.MAVLink:
         return self.conn.mav
 
-    def wait_first_heartbeat(self, stream_hz: int, timeout_s: float = 10.0) -> RealOperator:
+    def wait_first_heartbeat(self, stream_hz: int, timeout_s: float = 10.0) -> Self:
         """Ask for every stream at ``stream_hz`` and wait for the autopilot's first HEARTBEAT
         (how a test's ground station starts); returns itself."""
         self.request_streams(stream_hz)
