@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.support.ardupilot import (
-    ARDUPILOT_ENV,
+    SKIP_REASON,
     CompanionProcess,
     RealOperator,
     RealSitl,
@@ -38,8 +38,7 @@ MISSION_WALL_S = 120.0     # a hang guard, not a figure
 def main() -> int:
     binary = ardupilot_binary()
     if binary is None:
-        print(f"bench_ardupilot_demo: skipped: {ARDUPILOT_ENV} is not set (point it at the "
-              "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover)")
+        print(f"bench_ardupilot_demo: skipped: {SKIP_REASON}")
         return 0
     with tempfile.TemporaryDirectory(prefix="mavhelm-bench-ardupilot-") as tmp:
         return run(binary, Path(tmp))

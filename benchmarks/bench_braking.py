@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
-from tests.support.ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary
+from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 from tests.support.braking import (
     CALM,
     HOME,
@@ -61,8 +61,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mavhelm sim: {time.monotonic() - t:.1f} s wall", flush=True)
         real = None
         if binary is None:
-            print(f"bench_braking: no real SITL: {ARDUPILOT_ENV} is not set (point it at the "
-                  "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover); simulator only")
+            print(f"bench_braking: {SKIP_REASON}; simulator only")
         else:
             t = time.monotonic()
             with RealSitl(Path(tmp) / "real", model="motorboat", speedup=SPEEDUP, home=HOME,

@@ -81,7 +81,7 @@ from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
 from mavhelm.nav.replay import Accuracy, accuracy, replay
 from tests.support.ardupilot import (
-    ARDUPILOT_ENV,
+    SKIP_REASON,
     CompanionProcess,
     RealOperator,
     RealSitl,
@@ -703,8 +703,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     binary = ardupilot_binary()
     if binary is None:
-        print(f"bench_nav_ardupilot: skipped: {ARDUPILOT_ENV} is not set (point it at the "
-              "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover)")
+        print(f"bench_nav_ardupilot: skipped: {SKIP_REASON}")
         return 0
     only = {w.strip() for w in args.only.split(",")}
     with tempfile.TemporaryDirectory(prefix="mavhelm-bench-nav-ardupilot-") as tmp:

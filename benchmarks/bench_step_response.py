@@ -35,7 +35,7 @@ from mavhelm.sitl.boat import SimEnvironment
 from mavhelm.sitl.models import MODELS, get_model
 from mavhelm.sitl.parm_file import read_defaults
 from tests.support.ardupilot import (
-    ARDUPILOT_ENV,
+    SKIP_REASON,
     RealOperator,
     RealSitl,
     ardupilot_binary,
@@ -299,8 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         binary = ardupilot_binary()
         if binary is None:
-            print(f"bench_step_response: skipped: {ARDUPILOT_ENV} is not set (point it at the "
-                  "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover)")
+            print(f"bench_step_response: skipped: {SKIP_REASON}")
             return 0
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-steps-") as tmp:
             for label, model, params in RUNS:

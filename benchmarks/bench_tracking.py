@@ -74,7 +74,7 @@ from mavhelm.core.mission import parse_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.tasks.geometry import Point2, lawnmower, track_position
 from tests.support.ardupilot import (
-    ARDUPILOT_ENV,
+    SKIP_REASON,
     CompanionProcess,
     RealOperator,
     RealSitl,
@@ -377,9 +377,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[tuple[str, str, Figures]] = []
     t0 = time.monotonic()
     if binary is None and only & {"calm", "wind"}:
-        print(f"bench_tracking: {ARDUPILOT_ENV} is not set (point it at the ardurover SITL "
-              "binary, e.g. ../shared/ardupilot/ardurover): no real-SITL rows, the simulator's "
-              "only")
+        print(f"bench_tracking: {SKIP_REASON}: no real-SITL rows, the simulator's only")
     if binary is not None:
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-tracking-") as tmp:
             logs = args.logs or Path(tmp)
