@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from nmea_read import ParseError, latlon, read_sentence
+from tests.support.nmea_read import ParseError, latlon, read_sentence
 
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin

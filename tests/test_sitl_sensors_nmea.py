@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pynmea2
 import pytest
-from nmea_read import ParseError, latlon, read_sentence
+from tests.support.nmea_read import ParseError, latlon, read_sentence
 
 from mavhelm.sitl import nmea
 

@@ -6,7 +6,7 @@ import time
 
 import pytest
 import serial
-from nmea_read import ParseError, read_sentence
+from tests.support.nmea_read import ParseError, read_sentence
 
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
