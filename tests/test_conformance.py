@@ -71,10 +71,9 @@ TURN_HOME = (56.4120, -5.4760, 0, 90)
 
 @pytest.fixture(scope="module")
 def sim_turn() -> dict[str, Any]:
+    from mavhelm.sitl.parm_file import parse_parm
     from tests.support.braking import ROVER_PARM
     from tests.support.sitl_rig import Rig
-
-    from mavhelm.sitl.parm_file import parse_parm
 
     rig = Rig(model="rover", defaults=parse_parm(ROVER_PARM, "rover.parm"),
               fast_start=False, home=Origin(TURN_HOME[0], TURN_HOME[1]),

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.support.nmea_read import read_sentence
 
 from mavhelm.companion.link import SerialTransport
 from mavhelm.companion.serial_instruments import (
@@ -37,6 +36,7 @@ from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import Block, Entry, MissionError, parse_mission
 from mavhelm.sitl import nmea
+from tests.support.nmea_read import read_sentence
 from tests.support.waiting import wait_for
 
 ORIGIN = Origin(50.1, -4.2)

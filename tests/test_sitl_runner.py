@@ -10,12 +10,12 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.support.nmea_read import ParseError, read_sentence
 
 from mavhelm.core.clock import SimClock
 from mavhelm.sitl import runner
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.simulator import Simulator
+from tests.support.nmea_read import ParseError, read_sentence
 
 
 def _parse(*argv: str) -> argparse.Namespace:

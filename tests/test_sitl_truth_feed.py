@@ -20,7 +20,6 @@ import time
 
 import pytest
 import serial
-from tests.support.nmea_read import read_sentence
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.clock import AutopilotClock
@@ -36,6 +35,7 @@ from mavhelm.sitl.instruments_runner import (
 from mavhelm.sitl.runner import make_sensor_ports
 from mavhelm.sitl.serial_sensors import Beacon, HeadingSensor, NmeaGps, RadioRanges, SensorPort
 from mavhelm.sitl.truth_feed import BootTimeScenario, TruthFeed, heading_of_yaw, stream_requests
+from tests.support.nmea_read import read_sentence
 
 ORIGIN = Origin(56.4120, -5.4760)
 AUTOPILOT = (1, 1)
