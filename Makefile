@@ -41,6 +41,7 @@ bench: $(BIN)/.installed
 	$(BIN)/python -m benchmarks.bench_nav_ardupilot
 	$(BIN)/python -m benchmarks.bench_step_response
 	$(BIN)/python -m benchmarks.bench_braking
+	$(BIN)/python -m benchmarks.bench_lsq
 
 params: $(BIN)/.installed
 	$(BIN)/mavhelm params > docs/parameters.md
