@@ -31,16 +31,17 @@ test-fast: $(BIN)/.installed
 	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: $(BIN)/.installed
-	$(BIN)/python benchmarks/bench_demo.py
-	$(BIN)/python benchmarks/bench_hour_mission.py
-	$(BIN)/python benchmarks/bench_sim_alone.py
-	$(BIN)/python benchmarks/bench_link.py
-	$(BIN)/python benchmarks/bench_ardupilot_demo.py
-	$(BIN)/python benchmarks/bench_tracking.py
-	$(BIN)/python benchmarks/bench_nav.py
-	$(BIN)/python benchmarks/bench_nav_ardupilot.py
-	$(BIN)/python benchmarks/bench_step_response.py
-	$(BIN)/python benchmarks/bench_braking.py
+	$(BIN)/python -m benchmarks.bench_demo
+	$(BIN)/python -m benchmarks.bench_hour_mission
+	$(BIN)/python -m benchmarks.bench_sim_alone
+	$(BIN)/python -m benchmarks.bench_link
+	$(BIN)/python -m benchmarks.bench_ardupilot_demo
+	$(BIN)/python -m benchmarks.bench_tracking
+	$(BIN)/python -m benchmarks.bench_nav
+	$(BIN)/python -m benchmarks.bench_nav_ardupilot
+	$(BIN)/python -m benchmarks.bench_step_response
+	$(BIN)/python -m benchmarks.bench_braking
+	$(BIN)/python -m benchmarks.bench_lsq
 
 params: $(BIN)/.installed
 	$(BIN)/mavhelm params > docs/parameters.md

@@ -1,7 +1,7 @@
 """Benchmark: how the motorboat brakes under its autopilot, real ArduPilot SITL against mavhelm.
 
-Runs the script of tests/braking.py (armed in GUIDED, straight at 1.6 then 4 m/s on a refreshed
-velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the real SITL
+Runs the script of tests/support/braking.py (armed in GUIDED, straight at 1.6 then 4 m/s on a
+refreshed velocity target; each stopped by the 3 s GUIDED time-out and by HOLD) on the real SITL
 (``--model motorboat``, stock ``--defaults``, calm, ``--speedup 10``) and on ``mavhelm sim
 --model motorboat`` with the same files, and prints the figures side by side: speed at the
 stop and 1 s / 3 s after, time to 0.3 m/s and to < 0.1 m/s, time until it stays stopped, the
@@ -13,7 +13,7 @@ ardurover SITL binary) for the real column; without it, says so, prints the simu
 and exits 0.
 
 Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_braking.py``.
+-m benchmarks.bench_braking``.
 """
 
 from __future__ import annotations
@@ -24,23 +24,19 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import ARDUPILOT_ENV, RealSitl, ardupilot_binary  # noqa: E402
-from braking import (  # noqa: E402  (tests/ is on the path only now)
+from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
+from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+from tests.support.braking import (
     CALM,
     HOME,
-    RealBrakeSide,
-    SimBrakeSide,
     print_table,
     run_braking,
     sim_rig,
     write_stock_parms,
 )
+from tests.support.sides import RealSide, SimSide
 
-from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 10
 # the controller terms as autopilot.default_params tunes them to mavhelm's own rudder boat
 OWN_GAINS = {k: v for k, v in default_params(boat=True, skid=False).items()
@@ -59,19 +55,18 @@ def main(argv: list[str] | None = None) -> int:
         t = time.monotonic()
         rig = sim_rig(params_dir, **(OWN_GAINS if args.own_gains else {}))
         try:
-            sim = run_braking(SimBrakeSide(rig))
+            sim = run_braking(SimSide(rig, 0.02, companion=False))
         finally:
             rig.close()
         print(f"mavhelm sim: {time.monotonic() - t:.1f} s wall", flush=True)
         real = None
         if binary is None:
-            print(f"bench_braking: no real SITL: {ARDUPILOT_ENV} is not set (point it at the "
-                  "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover); simulator only")
+            print(f"bench_braking: {SKIP_REASON}; simulator only")
         else:
             t = time.monotonic()
             with RealSitl(Path(tmp) / "real", model="motorboat", speedup=SPEEDUP, home=HOME,
                           params=CALM, binary=binary) as sitl:
-                side = RealBrakeSide(sitl)
+                side = RealSide(sitl, companion=False)
                 try:
                     real = run_braking(side)
                 finally:

@@ -1,7 +1,7 @@
 """Benchmark: helm + nav tick time on the demo mission, and the lockstep speed-up.
 
 Prints figures; asserts nothing (a shared machine's speed is not a test result).
-Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_demo.py``.
+Run: ``make bench`` or ``.venv/bin/python -m benchmarks.bench_demo``.
 """
 
 from __future__ import annotations

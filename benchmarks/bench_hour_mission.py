@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from mavhelm.demo.harness import SimulatedRun
+from tests.support.mission import mission_text
 
 CORNERS = [(0.0, 150.0), (150.0, 150.0), (150.0, 0.0), (0.0, 0.0)]
 LAPS = 18
@@ -32,7 +33,8 @@ def hour_mission() -> str:
     n = LAPS * len(CORNERS)
     for i in range(n):
         x, y = CORNERS[i % len(CORNERS)]
-        start = "InitialState = ON" if i == 0 else f"InitialState = OFF\n StartFlag = Leg{i}Go"
+        start = ("InitialState = ON" if i == 0
+                 else f"InitialState = OFF\n        StartFlag = Leg{i}Go")
         finish = f"Leg{i + 1}Go" if i + 1 < n else "EndMission"
         legs.append(f"""
     Task = GoToWayPoint
@@ -45,29 +47,8 @@ def hour_mission() -> str:
         {start}
         FinishFlag = {finish}
     }}""")
-    return f"""
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0, AP @ 2.0
-    Y = GPS @ 2.0, AP @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-{''.join(legs)}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+    return mission_text("".join(legs), nav={"X": "GPS @ 2.0, AP @ 2.0",
+                                            "Y": "GPS @ 2.0, AP @ 2.0", "Yaw": "INS @ 1.0"})
 
 
 def cross_track(track, legs) -> np.ndarray:

@@ -21,14 +21,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.companion import Companion
 from mavhelm.core.clock import WallClock
+from tests.support.ports import free_port
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 PHASES = ("refuse", "up", "down", "flood", "stop")

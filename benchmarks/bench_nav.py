@@ -2,7 +2,7 @@
 and the replay speed-up on the real Plaza1 log (target: a one-hour log of that size in < 10 s).
 
 Prints figures; asserts nothing (a shared machine's speed is not a test result).
-Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_nav.py``.
+Run: ``make bench`` or ``.venv/bin/python -m benchmarks.bench_nav``.
 """
 
 from __future__ import annotations
@@ -16,12 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from mavhelm.companion.alog import read_alog  # noqa: E402
-from mavhelm.core.mission import load_mission  # noqa: E402
-from mavhelm.nav.ekf import EKF, Beacon, BodyVelocity, EKFConfig, Range, Yaw  # noqa: E402
-from mavhelm.nav.replay import replay  # noqa: E402
+from mavhelm.companion.alog import read_alog
+from mavhelm.core.mission import load_mission
+from mavhelm.nav.ekf import EKF, Beacon, BodyVelocity, EKFConfig, Range, Yaw
+from mavhelm.nav.replay import replay
 
 REPO = Path(__file__).resolve().parents[1]
 PLAZA = REPO.parent / "shared" / "data" / "plaza" / "Plaza1.mat"
@@ -54,8 +52,8 @@ def ekf_updates() -> None:
 def tick_with_ekf() -> None:
     """The figure-of-eight-free box patrol of the simulator tests, with the EKF on GPS,
     compass, DVL and gyro: pNav's and pHelm's share of each companion tick."""
-    import nav_sim_rig
-    from test_nav_sim import DEAD_RECKONING
+    from tests.support import nav_sim_rig
+    from tests.support.nav_sim_rig import DEAD_RECKONING
 
     with tempfile.TemporaryDirectory() as folder:
         run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))

@@ -3,7 +3,7 @@ against ArduPilot").
 
 Both experiments run the real SITL (``MAVHELM_ARDUPILOT``, motorboat, ``--speedup 5``, calm
 water: ``SIM_WIND_SPD 0``, ``SIM_WAVE_ENABLE 0``; ``--wind`` keeps the stock wind and waves),
-the companion as ``mavhelm run MISSION --clock autopilot`` on SERIAL1 (tests/ardupilot.py's
+the companion as ``mavhelm run MISSION --clock autopilot`` on SERIAL1 (tests/support/ardupilot.py's
 ``CompanionProcess``) and a ground station on SERIAL0 (``RealOperator``) that arms the boat in
 GUIDED; the clocks start once the companion says ``helm ONLINE``. The mission patrols a 100 m
 box (XYPattern, Repeat FOREVER, Thrust 60) steered on NAV_*, and asks for ``SIMSTATE@10`` so
@@ -55,7 +55,7 @@ Targets (issue 9): NAV error ≤ half the raw GPS error; ≤ 2 m throughout the 
 
 Without MAVHELM_ARDUPILOT, says so and exits 0. About 2.5 minutes of wall time. Run:
 ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_nav_ardupilot.py`` (``--only noise,outage``; ``--keep DIR`` runs in DIR and
+-m benchmarks.bench_nav_ardupilot`` (``--only noise,outage``; ``--keep DIR`` runs in DIR and
 keeps the logs: .alog, .olog/.xlog, the SITL's and the instruments' output).
 """
 
@@ -66,38 +66,34 @@ import contextlib
 import math
 import re
 import signal
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
-    ARDUPILOT_ENV,
+from mavhelm.companion.alog import read_alog
+from mavhelm.core.bus import Message
+from mavhelm.core.geodesy import Origin
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav.replay import Accuracy, accuracy, replay
+from tests.support.ardupilot import (
+    SKIP_REASON,
     CompanionProcess,
     RealOperator,
     RealSitl,
-    _set_parent_death_signal,
     ardupilot_binary,
 )
-from nav_sim_rig import BEACONS as RIG_BEACONS  # noqa: E402
-from nav_sim_rig import LAT, LON, SERIAL  # noqa: E402
-from nav_sim_rig import mission_text as rig_mission  # noqa: E402
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from tests.support.nav_sim_rig import BEACONS as RIG_BEACONS
+from tests.support.nav_sim_rig import LAT, LON, SERIAL
+from tests.support.nav_sim_rig import mission_text as rig_mission
+from tests.support.processes import ConsoleProcess
+from tests.support.waiting import wait_for
 
-from mavhelm.companion.alog import read_alog  # noqa: E402
-from mavhelm.core.bus import Message  # noqa: E402
-from mavhelm.core.geodesy import Origin  # noqa: E402
-from mavhelm.core.mission import parse_mission  # noqa: E402
-from mavhelm.nav.replay import Accuracy, accuracy, replay  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = LAT, LON                  # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
 SPEEDUP = 5                            # 10 starves the companion on 2 cores
@@ -164,9 +160,9 @@ INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
 
 
 def mission_text(nav: str, serial: str = "", thrust: float = 60.0) -> str:
-    """The simulator tests' box patrol (tests/nav_sim_rig.py), with SIMSTATE streamed to the
+    """The simulator tests' box patrol (tests/support/nav_sim_rig.py), with SIMSTATE streamed to the
     companion: the truth every figure here is scored against."""
-    return rig_mission(serial, nav, thrust=thrust, imavlink="    Stream      = SIMSTATE@10\n")
+    return rig_mission(serial, nav, thrust=thrust, imavlink=[("Stream", "SIMSTATE@10")])
 
 
 # ---- the ground station -------------------------------------------------------------------------
@@ -287,10 +283,8 @@ def hand_over(op: Operator, comp: CompanionProcess, speedup: float) -> None:
 
 
 def start_operator(sitl: RealSitl, speedup: float) -> Operator:
-    op = Operator(sitl.ports.serial0, heartbeat_s=1.0 / speedup)
-    op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
-    op.request_streams(4)     # GLOBAL_POSITION_INT, EKF_STATUS_REPORT, SIMSTATE at 4 Hz
-    return op
+    # GLOBAL_POSITION_INT, EKF_STATUS_REPORT, SIMSTATE at 4 Hz
+    return Operator(sitl.ports.serial0, heartbeat_s=1.0 / speedup).wait_first_heartbeat(4)
 
 
 # ---- reading the .alog --------------------------------------------------------------------------
@@ -522,54 +516,32 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
 
 # ---- experiment 2: GPS off for 120 s ------------------------------------------------------------
 
-class Instruments:
-    """``mavhelm instruments`` in its own process; its console lines collected."""
+class Instruments(ConsoleProcess):
+    """``mavhelm instruments`` in its own process; its console lines collected (and logged)."""
 
     PORT_LINE = re.compile(r"mavhelm instruments: (\w+) on (/dev/pts/\d+)")
 
     def __init__(self, truth_port: int, log_path: Path) -> None:
         beacons = ";".join(f"{i}:{x:g},{y:g},{z:g}" for i, x, y, z in BEACONS)
-        self.cmd = [sys.executable, "-m", "mavhelm.cli", "instruments",
-                    "--truth", f"tcp:127.0.0.1:{truth_port}", "--origin", f"{LAT0},{LON0}",
-                    "--ranging", "radio", "--beacons", beacons]
-        self.log_path = log_path
-        self.lines: list[str] = []
-        self.proc = subprocess.Popen(
-            self.cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        with self.log_path.open("w") as f:
-            for line in self.proc.stdout:
-                self.lines.append(line.rstrip("\n"))
-                f.write(line)
-                f.flush()
+        super().__init__([sys.executable, "-m", "mavhelm.cli", "instruments",
+                          "--truth", f"tcp:127.0.0.1:{truth_port}", "--origin",
+                          f"{LAT0},{LON0}", "--ranging", "radio", "--beacons", beacons],
+                         log_path=log_path)
 
     def ports(self, timeout_s: float = 10.0) -> dict[str, str]:
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout_s:
-            found = dict(m.groups() for line in list(self.lines)
+        def found() -> dict[str, str] | None:
+            paths = dict(m.groups() for _, line in list(self.lines)
                          if (m := self.PORT_LINE.search(line)))
-            if all(name in found for name in INSTRUMENTS):
-                return found
-            if self.proc.poll() is not None:
-                break
-            time.sleep(0.05)
-        raise RuntimeError("mavhelm instruments printed no ports:\n" + "\n".join(self.lines))
+            if all(name in paths for name in INSTRUMENTS):
+                return paths
+            if not self.running():
+                raise RuntimeError("mavhelm instruments exited:\n" + self.output())
+            return None
+        return wait_for(found, timeout_s, "mavhelm instruments' ports", self.output,
+                        error=RuntimeError)
 
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(5.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
+    def stop(self, sig: int = signal.SIGINT, grace_s: float = 5.0) -> int:
+        return super().stop(sig, grace_s)
 
 
 def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
@@ -700,7 +672,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   mode: {'GUIDED, armed throughout' if not changed else changed}; true speed "
           f"during the outage mean {true_speed.mean():.1f} m/s, max {true_speed.max():.1f} m/s "
           f"(Thrust {args.outage_thrust:g})")
-    velocity = [line for line in inst.lines if "velocity from" in line]
+    velocity = inst.find_all("velocity from")
     if velocity:
         print(f"   instruments: {velocity[0].split(': ', 1)[1]}")
     if args.keep:
@@ -731,8 +703,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     binary = ardupilot_binary()
     if binary is None:
-        print(f"bench_nav_ardupilot: skipped: {ARDUPILOT_ENV} is not set (point it at the "
-              "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover)")
+        print(f"bench_nav_ardupilot: skipped: {SKIP_REASON}")
         return 0
     only = {w.strip() for w in args.only.split(",")}
     with tempfile.TemporaryDirectory(prefix="mavhelm-bench-nav-ardupilot-") as tmp:

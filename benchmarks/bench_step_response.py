@@ -17,7 +17,7 @@ says so and exits 0. ``--save DIR`` keeps the captures as JSON, ``--load DIR`` r
 without the binary.
 
 Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python
-benchmarks/bench_step_response.py``.
+-m benchmarks.bench_step_response``.
 """
 
 from __future__ import annotations
@@ -31,20 +31,17 @@ import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
-    ARDUPILOT_ENV,
+from mavhelm.sitl.boat import SimEnvironment
+from mavhelm.sitl.models import MODELS, get_model
+from mavhelm.sitl.parm_file import read_defaults
+from tests.support.ardupilot import (
+    SKIP_REASON,
     RealOperator,
     RealSitl,
     ardupilot_binary,
 )
 
-from mavhelm.sitl.boat import SimEnvironment  # noqa: E402
-from mavhelm.sitl.models import MODELS, get_model  # noqa: E402
-from mavhelm.sitl.parm_file import read_defaults  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 # Stick steps this benchmark drives the real SITL and the models through, in MANUAL with RC
 # override: (autopilot seconds from the first step, steering, throttle, name). Sticks in
 # [-1, 1]; ArduPilot turns them into servo outputs (throttle slewed by MOT_SLEWRATE).
@@ -302,8 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         binary = ardupilot_binary()
         if binary is None:
-            print(f"bench_step_response: skipped: {ARDUPILOT_ENV} is not set (point it at the "
-                  "ardurover SITL binary, e.g. ../shared/ardupilot/ardurover)")
+            print(f"bench_step_response: skipped: {SKIP_REASON}")
             return 0
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-steps-") as tmp:
             for label, model, params in RUNS:

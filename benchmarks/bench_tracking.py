@@ -53,7 +53,7 @@ Lead 5).
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
-``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python benchmarks/bench_tracking.py``
+``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python -m benchmarks.bench_tracking``
 (``--only calm,wind,sim,exact`` and ``--tasks Survey,TrackLines`` pick what to run).
 """
 
@@ -67,23 +67,23 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from ardupilot import (  # noqa: E402  (tests/ is on the path only now)
-    ARDUPILOT_ENV,
+from mavhelm.core.geodesy import Origin
+from mavhelm.core.mission import parse_mission
+from mavhelm.demo.harness import SimulatedRun
+from mavhelm.tasks.geometry import Point2, lawnmower, track_position
+from tests.support.ardupilot import (
+    SKIP_REASON,
     CompanionProcess,
     RealOperator,
     RealSitl,
     ardupilot_binary,
 )
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from tests.support.mission import NAV_AP_FALLBACK
+from tests.support.mission import mission_text as standard_mission
 
-from mavhelm.core.geodesy import Origin  # noqa: E402
-from mavhelm.core.mission import parse_mission  # noqa: E402
-from mavhelm.demo.harness import SimulatedRun  # noqa: E402
-from mavhelm.tasks.geometry import Point2, lawnmower, track_position  # noqa: E402
-
+ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = 56.4120, -5.4760          # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
 SPEEDUP = 10                           # not more: the companion must keep up
@@ -121,45 +121,7 @@ TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead
 DEFAULTS = Helm("product defaults: MaxTurnRate 45, YAW_PID_KP 0.5, Lead 5", yaw_kp=0.5,
                 lead=5.0)
 
-MISSION = """
-LatOrigin  = {lat}
-LongOrigin = {lon}
 
-ProcessConfig = iMAVLink
-{{
-    OnlineModes = GUIDED
-    MaxTurnRate = {max_turn_rate:g}
-{streams}}}
-
-ProcessConfig = pNav
-{{
-    X     = GPS @ 2.0, AP @ 2.0
-    Y     = GPS @ 2.0, AP @ 2.0
-    Yaw   = INS @ 1.0, AP @ 2.0
-    Speed = GPS @ 2.0, AP @ 2.0
-}}
-
-ProcessConfig = pHelm
-{{
-    AppTick    = {app_tick:g}
-    MAXRUDDER  = 20
-    MAXTHRUST  = 100
-    YAW_PID_KP = {yaw_kp:g}
-{tasks}
-    Task = OverallTimeOut
-    {{
-        Name       = Clock
-        TimeOut    = 400
-        FinishFlag = EndMission
-    }}
-
-    Task = EndMission
-    {{
-        Name      = AllStop
-        StartFlag = EndMission
-    }}
-}}
-"""
 
 SURVEY = f"""
     Task = Survey
@@ -209,12 +171,16 @@ TASKS = {"Survey": SURVEY, "TrackLines": chain_tasks()}
 
 
 def mission_text(kind: str, helm: Helm) -> str:
-    streams = "".join(f"    Stream      = {name}@{helm.stream_hz:g}\n"
-                      for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
-                      if helm.stream_hz)
-    return MISSION.format(lat=LAT0, lon=LON0, streams=streams, app_tick=helm.app_tick,
-                          max_turn_rate=helm.max_turn_rate, yaw_kp=helm.yaw_kp,
-                          tasks=TASKS[kind].format(lead=helm.lead))
+    streams = [("Stream", f"{name}@{helm.stream_hz:g}")
+               for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
+               if helm.stream_hz]
+    return standard_mission(
+        TASKS[kind].format(lead=helm.lead), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
+        imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
+                  *streams],
+        helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,
+              "YAW_PID_KP": f"{helm.yaw_kp:g}"},
+        overall_timeout=400, clock_name="Clock", end_name="AllStop")
 
 
 # ---- the figures -------------------------------------------------------------------------------
@@ -411,9 +377,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[tuple[str, str, Figures]] = []
     t0 = time.monotonic()
     if binary is None and only & {"calm", "wind"}:
-        print(f"bench_tracking: {ARDUPILOT_ENV} is not set (point it at the ardurover SITL "
-              "binary, e.g. ../shared/ardupilot/ardurover): no real-SITL rows, the simulator's "
-              "only")
+        print(f"bench_tracking: {SKIP_REASON}: no real-SITL rows, the simulator's only")
     if binary is not None:
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-tracking-") as tmp:
             logs = args.logs or Path(tmp)

@@ -1,10 +1,10 @@
 """Fixtures shared by several test modules.
 
-Task rigs (test_tasks_*): ``tblock`` builds a mission ``Task`` block from (key, value) pairs,
-each entry on its own line after the block's, so refusals can be checked at file:line; ``msg``
-builds a bus message and ``nav_at`` a NavState holding NAV_* values heard at one time.
+Task rigs (test_tasks_*): ``tblock``, ``msg`` and ``nav_at`` are ``support.task_rig``'s
+``task_block`` (a mission ``Task`` block, each entry on its own line, so refusals can be
+checked at file:line), ``message`` and ``nav_at`` (a NavState that heard NAV_* values).
 
-Simulator rig (test_sitl_*): ``rig`` is a ``sitl_rig.Rig`` with the default settings, closed
+Simulator rig (test_sitl_*): ``rig`` is a ``support.sitl_rig.Rig`` with the default settings, closed
 after the test. Tests that need other settings build ``Rig(...)`` from sitl_rig themselves.
 """
 
@@ -16,53 +16,39 @@ from typing import TYPE_CHECKING
 import pytest
 
 from mavhelm.core.bus import Message
-from mavhelm.core.mission import Block, Entry
+from mavhelm.core.mission import Block
 from mavhelm.tasks.base import NavState
+from tests.support import task_rig
 
 if TYPE_CHECKING:
-    from sitl_rig import Rig
-
-
-def _task_block(kind: str, *pairs: tuple[str, str], file: str = "t.moos",
-                line: int = 60) -> Block:
-    entries = [Entry(k, v, file, line + 1 + i) for i, (k, v) in enumerate(pairs)]
-    return Block("Task", kind, file, line, entries)
-
-
-def _message(name: str, value: float | str, t: float) -> Message:
-    return Message(name, value, t, "test")
-
-
-def _nav_at(t: float, **values: float) -> NavState:
-    nav = NavState()
-    for name, v in values.items():
-        nav.update(_message(f"NAV_{name.upper()}", v, t))
-    return nav
+    from tests.support.sitl_rig import Rig
 
 
 @pytest.fixture
 def tblock() -> Callable[..., Block]:
     """``tblock(kind, *(key, value), file="t.moos", line=60)``: a Task block at file:line, its
     entries on the lines after it."""
-    return _task_block
+    return task_rig.task_block
 
 
 @pytest.fixture
 def msg() -> Callable[[str, float | str, float], Message]:
     """``msg(name, value, t)``: a bus message from source "test"."""
-    return _message
+    return task_rig.message
 
 
 @pytest.fixture
 def nav_at() -> Callable[..., NavState]:
     """``nav_at(t, x=.., heading=..)``: a NavState that heard NAV_X, NAV_HEADING... at time t."""
-    return _nav_at
+    return task_rig.nav_at
 
 
 @pytest.fixture
 def rig() -> Iterator[Rig]:
     """A default simulator rig (three TCP ports, fast start), closed after the test."""
-    from sitl_rig import Rig  # imported here: only the simulator tests pay for the simulator
+    from tests.support.sitl_rig import (
+        Rig,  # imported here: only the simulator tests pay for the simulator
+    )
 
     r = Rig()
     yield r
@@ -75,7 +61,7 @@ def real_sitl(tmp_path) -> Iterator[Callable[..., object]]:
     ``ardupilot.RealSitl`` (the real ArduPilot binary named by MAVHELM_ARDUPILOT) in its own
     folder under tmp_path; every one started is stopped after the test. Skips when
     MAVHELM_ARDUPILOT is unset; fails when it is set but wrong."""
-    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+    from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None:

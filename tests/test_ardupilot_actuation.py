@@ -10,7 +10,7 @@ autopilot itself (RC_CHANNELS, SERVO_OUTPUT_RAW, SIMSTATE ground truth, all stam
 autopilot seconds; wall-clock bounds only guard against a hang. Measured figures are printed
 (run with ``-s``).
 
-Needs MAVHELM_ARDUPILOT (see tests/ardupilot.py); skips without it.
+Needs MAVHELM_ARDUPILOT (see tests/support/ardupilot.py); skips without it.
 """
 
 from __future__ import annotations
@@ -20,10 +20,19 @@ import time
 from pathlib import Path
 
 import pytest
-from ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, CompanionProcess, RealOperator
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.bus import Message
+from tests.support.ardupilot import (
+    GCS_COMPONENT_ID,
+    GCS_SYSTEM_ID,
+    CompanionProcess,
+    RealOperator,
+    wait_autopilot,
+    wait_watching,
+)
+from tests.support.ardupilot import wait_line as wait_line_read
+from tests.support.mission import mission_text
 
 # real_sitl: fixture in conftest.py
 
@@ -41,83 +50,35 @@ SWITCH_HIGH, SWITCH_LOW = 1900, 1100
 HAND_OVER_WALL_S = 60.0      # "it did not hang" guards, wall seconds
 EVENT_WALL_S = 30.0
 
-# The heading gains in RC_MISSION: under rc_override RUDDER/MAXRUDDER is the steering servo's
+# The heading gains in rc_mission: under rc_override RUDDER/MAXRUDDER is the steering servo's
 # whole throw, with no turn-rate limit and no ArduPilot rate loop (unlike guided, where full
 # rudder is MaxTurnRate). The SITL motorboat at 60 % throttle then turns at a few hundred deg/s
 # at full steering, and the default YAW_PID_KP 0.5 / KD 0.2 limit-cycle bang-bang between 1000
 # and 2000 us, the heading swinging about 0..190 deg (measured); KP 0.2, KD 0 turns the boat
 # from north and settles on 89 deg within about 2 s. The gains are the mission's, as a user's.
-RC_MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Actuation     = rc_override
-    SystemID      = {sysid}
-    EngageChannel = 7
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-    YAW_PID_KP = 0.2
-    YAW_PID_KD = 0
-    Task = ConstantHeading
-    {{
-        Name = East
-        Heading = 90
-        Thrust = 60
-        TimeOut = NEVER
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+def rc_mission(sysid: int) -> str:
+    """East on rc_override, the companion as MAVLink system ``sysid``."""
+    return mission_text("""
+        Task = ConstantHeading
+        {
+            Name = East
+            Heading = 90
+            Thrust = 60
+            TimeOut = NEVER
+        }""", imavlink={"Actuation": "rc_override", "SystemID": sysid, "EngageChannel": 7},
+        helm={"YAW_PID_KP": 0.2, "YAW_PID_KD": 0})
 
-SERVO_MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Servo = WINCH@{output}:1100-1900
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-    Task = SetActuator
-    {{
-        Name = Winch
-        Actuator = WINCH
-        Value = 50
-        TimeOut = NEVER
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+
+def servo_mission(output: int) -> str:
+    """A winch held at 50 % on servo ``output``."""
+    return mission_text("""
+        Task = SetActuator
+        {
+            Name = Winch
+            Actuator = WINCH
+            Value = 50
+            TimeOut = NEVER
+        }""", imavlink={"Servo": f"WINCH@{output}:1100-1900"})
 
 
 # -- the ground station -------------------------------------------------------------------------
@@ -175,10 +136,6 @@ class Operator(RealOperator):
             self.servos.append((msg.time_usec // 1000,
                                 tuple(getattr(msg, f"servo{i}_raw") for i in range(1, 17))))
 
-    def request_interval(self, name: str, hz: float) -> None:
-        self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
-                     getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), 1e6 / hz)
-
     def refresh_gaps_ms(self, since_ms: int) -> list[int]:
         """Autopilot ms between the switch overrides sent since ``since_ms``."""
         times = [t for t, _ in self.switch_sent if t is not None and t >= since_ms]
@@ -187,8 +144,7 @@ class Operator(RealOperator):
 
 def start_operator(sitl) -> Operator:
     op = Operator(sitl.ports.serial0, sitl.speedup)
-    op.request_streams(STREAM_HZ)
-    op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
+    op.wait_first_heartbeat(STREAM_HZ)
     op.request_interval("RC_CHANNELS", RC_HZ)       # asked before it runs, this is ignored
     op.request_interval("SERVO_OUTPUT_RAW", RC_HZ)
     return op
@@ -196,43 +152,19 @@ def start_operator(sitl) -> Operator:
 
 # -- the companion process ----------------------------------------------------------------------
 
-def companion(mission_text: str, port: int, folder: Path) -> CompanionProcess:
+def companion(text: str, port: int, folder: Path) -> CompanionProcess:
     """The mission written to ``folder`` and ``mavhelm run`` started on it."""
     folder.mkdir(parents=True, exist_ok=True)
     mission = folder / "mission.moos"
-    mission.write_text(mission_text)
+    mission.write_text(text)
     return CompanionProcess(mission, port, folder / "logs")
-
-
-def wait_for(op: Operator, comp: CompanionProcess, predicate, what: str,
-             timeout_s: float = EVENT_WALL_S) -> None:
-    """Poll the operator until ``predicate()``; fail at once if the companion exited."""
-    def check() -> bool:
-        if not comp.running():
-            raise AssertionError(f"the companion exited (code {comp.proc.returncode}) while "
-                                 f"waiting for {what}:\n{comp.output()}")
-        return bool(predicate())
-    try:
-        op.wait_until(check, timeout_s, what)
-    except TimeoutError as exc:
-        raise AssertionError(f"{exc}\ncompanion console:\n{comp.output()}") from None
 
 
 def wait_line(op: Operator, comp: CompanionProcess, fragment: str, nth: int = 1) -> int:
     """Wait for the companion's ``nth`` console line containing ``fragment``; returns the
     operator's autopilot ms when it was seen."""
-    wait_for(op, comp, lambda: len(comp.find_all(fragment)) >= nth,
-             f"companion line {fragment!r} #{nth}")
+    wait_line_read(op, comp, fragment, nth, EVENT_WALL_S)
     assert op.boot_ms is not None
-    return op.boot_ms
-
-
-def wait_autopilot(op: Operator, comp: CompanionProcess, seconds: float) -> int:
-    """Let ``seconds`` of the autopilot's clock pass; returns the autopilot ms reached."""
-    assert op.boot_ms is not None
-    until = op.boot_ms + int(seconds * 1000)
-    wait_for(op, comp, lambda: op.boot_ms >= until, f"{seconds:g} autopilot s",
-             timeout_s=5.0 + 3.0 * seconds)
     return op.boot_ms
 
 
@@ -280,7 +212,7 @@ def test_rc_override_drives_in_manual_on_the_switch_and_releases_at_once(real_si
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = companion(RC_MISSION.format(sysid=GCS_SYSTEM_ID), sitl.ports.serial1,
+        comp = companion(rc_mission(GCS_SYSTEM_ID), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -382,7 +314,7 @@ def test_rc_override_refuses_a_mav_gcs_sysid_mismatch(real_sitl, tmp_path) -> No
     t_wall = time.monotonic()
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
-        comp = companion(RC_MISSION.format(sysid=1), sitl.ports.serial1,
+        comp = companion(rc_mission(1), sitl.ports.serial1,
                                 tmp_path / "companion")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
@@ -420,14 +352,14 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
     with start_operator(sitl) as op:
         sitl.wait_listening(sitl.ports.serial1)
         # WINCH on the free output 9
-        comp = companion(SERVO_MISSION.format(output=9), sitl.ports.serial1,
+        comp = companion(servo_mission(9), sitl.ports.serial1,
                                 tmp_path / "winch9")
         try:
             wait_line(op, comp, "helm offline: autopilot disarmed")
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / sitl.speedup)
             wait_line(op, comp, "helm ONLINE")
-            wait_for(op, comp, lambda: op.servos and op.servos[-1][1][8] == 1700,
-                     "SERVO_OUTPUT_RAW servo9_raw 1700")
+            wait_watching(op, comp, lambda: op.servos and op.servos[-1][1][8] == 1700,
+                          EVENT_WALL_S, "SERVO_OUTPUT_RAW servo9_raw 1700")
             wait_autopilot(op, comp, 5.0)
         finally:
             code9 = comp.stop()
@@ -435,7 +367,7 @@ def test_servo_output_reaches_servo_output_raw_and_a_motor_output_is_refused_onc
         # WINCH on output 1, the motorboat's steering: refused by ArduPilot, reported once
         start1 = op.boot_ms
         assert start1 is not None
-        comp = companion(SERVO_MISSION.format(output=1), sitl.ports.serial1,
+        comp = companion(servo_mission(1), sitl.ports.serial1,
                                 tmp_path / "winch1")
         try:
             wait_line(op, comp, "helm ONLINE")

@@ -13,7 +13,7 @@ while its helm is offline, so those two run the real CLI through a small launche
 posts ``TEST_TICK`` (stamped with the tick's own time) at the start of every tick: postings that
 follow a ``TEST_TICK`` in the .alog, up to the next one, were made in that tick.
 
-Needs MAVHELM_ARDUPILOT (see tests/ardupilot.py); skips without it.
+Needs MAVHELM_ARDUPILOT (see tests/support/ardupilot.py); skips without it.
 """
 
 from __future__ import annotations
@@ -30,7 +30,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
-from ardupilot import (
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.core.bus import Message
+from tests.support.ardupilot import (
     CompanionProcess,
     RealOperator,
     _candidates,
@@ -38,10 +41,10 @@ from ardupilot import (
     instance_free,
     instance_ports,
     truth_track,
+    wait_autopilot,
+    wait_line,
+    wait_watching,
 )
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
-from mavhelm.core.bus import Message
 
 # real_sitl: fixture in conftest.py
 
@@ -64,7 +67,6 @@ MISSION_WALL_S = 90.0
 SIM_STARTED = ["InitialDelay", "MissionClock", "South", "North", "Home", "AllStop"]
 SIM_ENDED = ["InitialDelay:timeout", "South:timeout", "North:timeout", "Home:complete"]
 
-COMPANION_COMPONENT = 191   # MAV_COMP_ID_ONBOARD_COMPUTER, the companion's default
 
 TICK_MARK = "TEST_TICK"
 TICK_LAUNCHER = f"""
@@ -84,63 +86,6 @@ sys.exit(cli.main(sys.argv[1:]))
 # -- the companion process ---------------------------------------------------------------------
 
 TICK_LAUNCH = [sys.executable, "-c", TICK_LAUNCHER]
-
-
-def wait_for(op: RealOperator, comp: CompanionProcess | None, predicate, timeout_s: float,
-             what: str) -> float:
-    """Poll the operator until ``predicate()``; fail at once if the companion exited."""
-    def check() -> bool:
-        if comp is not None and not comp.running():
-            raise AssertionError(f"the companion exited (code {comp.proc.returncode}) while "
-                                 f"waiting for {what}:\n{comp.output()}")
-        return bool(predicate())
-    try:
-        return op.wait_until(check, timeout_s, what)
-    except TimeoutError as exc:
-        tail = comp.output() if comp is not None else ""
-        raise AssertionError(f"{exc}\ncompanion console:\n{tail}") from None
-
-
-def wait_line(op: RealOperator, comp: CompanionProcess, fragment: str, nth: int = 1,
-              timeout_s: float = EVENT_WALL_S) -> float:
-    """Wait for the companion's ``nth`` console line containing ``fragment``; its wall time."""
-    wait_for(op, comp, lambda: comp.find(fragment, nth) is not None, timeout_s,
-             f"companion line {fragment!r} #{nth}")
-    hit = comp.find(fragment, nth)
-    assert hit is not None
-    return hit[0]
-
-
-def wait_autopilot(op: RealOperator, comp: CompanionProcess | None, seconds: float) -> int:
-    """Let ``seconds`` of the autopilot's clock pass (its time_boot_ms on SERIAL0); returns the
-    boot ms reached."""
-    assert op.boot_ms is not None
-    until = op.boot_ms + int(seconds * 1000)
-    wait_for(op, comp, lambda: op.boot_ms >= until, 5.0 + 3.0 * seconds,
-             f"{seconds:g} autopilot s")
-    return op.boot_ms
-
-
-class Operator(RealOperator):
-    """``RealOperator`` keeps only the autopilot's own texts; this one also keeps the
-    companion's (system 1, component 191), which ArduPilot routes to SERIAL0."""
-
-    def __init__(self, port: int) -> None:
-        super().__init__(port)
-        self.companion_texts: list[tuple[float, str]] = []
-
-    def _handle(self, msg, now: float) -> None:
-        if (msg.get_type() == "STATUSTEXT" and msg.get_srcSystem() == 1
-                and msg.get_srcComponent() == COMPANION_COMPONENT):
-            self.companion_texts.append((now, msg.text))
-        super()._handle(msg, now)
-
-
-def start_operator(sitl) -> Operator:
-    op = Operator(sitl.ports.serial0)
-    op.request_streams(STREAM_HZ)
-    op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
-    return op
 
 
 # -- reading the .alog -------------------------------------------------------------------------
@@ -368,7 +313,7 @@ class LinkProxy:
 
 def test_demo_mission_end_to_end(real_sitl, tmp_path) -> None:
     sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
-    with start_operator(sitl) as op:
+    with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
         sitl.wait_listening(sitl.ports.serial1)        # opens once SERIAL0 has a client
         comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion")
         try:
@@ -435,7 +380,7 @@ def test_demo_mission_end_to_end(real_sitl, tmp_path) -> None:
 
 def test_manual_mid_mission_stops_actuation_within_one_tick(real_sitl, tmp_path) -> None:
     sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
-    with start_operator(sitl) as op:
+    with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
         sitl.wait_listening(sitl.ports.serial1)
         comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion",
                                 launcher=TICK_LAUNCH)
@@ -445,7 +390,7 @@ def test_manual_mid_mission_stops_actuation_within_one_tick(real_sitl, tmp_path)
             wait_line(op, comp, "task South started")
             wait_autopilot(op, comp, 3.0)
             op.set_mode("MANUAL")
-            wait_for(op, comp, lambda: op.mode == "MANUAL", EVENT_WALL_S, "MANUAL")
+            wait_watching(op, comp, lambda: op.mode == "MANUAL", EVENT_WALL_S, "MANUAL")
             wait_line(op, comp, "helm offline: autopilot in MANUAL")
             wait_autopilot(op, comp, 3.0)
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / sitl.speedup)
@@ -499,7 +444,7 @@ def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path
     # wall, and this 2-core machine (SITL + companion + test) delays a wake-up by that much now
     # and then, online or not (measured: max gap 0.25 s at x20 in both phases)
     sitl = real_sitl(model="motorboat", speedup=LINK_TEST_SPEEDUP)
-    with start_operator(sitl) as op:
+    with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
         sitl.wait_listening(sitl.ports.serial1)
         proxy = LinkProxy(sitl.ports.serial1)
         comp = CompanionProcess(DEMO, proxy.port, tmp_path / "companion", launcher=TICK_LAUNCH)
@@ -514,11 +459,11 @@ def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path
             wait_line(op, comp, "helm offline: no")
             # restored 6 autopilot s after the cut; the companion retries 1, 3 and 7 s after
             # the loss (backoff 1-2-4 s), so it is back on the third retry, ~7 s after the cut
-            wait_for(op, comp, lambda: op.boot_ms >= cut_boot + CUT_S * 1000, EVENT_WALL_S,
+            wait_watching(op, comp, lambda: op.boot_ms >= cut_boot + CUT_S * 1000, EVENT_WALL_S,
                      "the end of the cut")
             restore_boot = op.boot_ms
             proxy.restore()
-            wait_for(op, comp, lambda: len(proxy.connections) >= 2, EVENT_WALL_S,
+            wait_watching(op, comp, lambda: len(proxy.connections) >= 2, EVENT_WALL_S,
                      "the companion's new connection")
             wait_line(op, comp, "helm ONLINE", nth=2)
             # then a blip shorter than LinkTimeOut (the companion is back 1 s after the loss):
@@ -527,10 +472,10 @@ def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path
             wait_autopilot(op, comp, 2.0)
             blip_boot = op.boot_ms
             proxy.cut()
-            wait_for(op, comp, lambda: op.boot_ms >= blip_boot + BLIP_S * 1000, EVENT_WALL_S,
+            wait_watching(op, comp, lambda: op.boot_ms >= blip_boot + BLIP_S * 1000, EVENT_WALL_S,
                      "the end of the blip")
             proxy.restore()
-            wait_for(op, comp, lambda: len(proxy.connections) >= 3
+            wait_watching(op, comp, lambda: len(proxy.connections) >= 3
                      and "SET_ATTITUDE_TARGET" in proxy.connections[2].sent, EVENT_WALL_S,
                      "actuation on the third connection")
             wait_line(op, comp, "task North started", timeout_s=MISSION_WALL_S)
@@ -646,7 +591,7 @@ def test_companion_started_before_the_autopilot_waits_then_goes_online(real_sitl
         lock.close()
         sitl_wall = time.monotonic()
         sitl = real_sitl(model="motorboat", speedup=SPEEDUP, instance=instance)
-        with start_operator(sitl) as op:
+        with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
             serial1_wall = time.monotonic() + sitl.wait_listening(ports.serial1)
             open_wall = wait_line(op, comp, "open (MAVLink 2)")
             wait_line(op, comp, "helm offline: autopilot disarmed")

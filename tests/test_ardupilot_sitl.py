@@ -1,9 +1,9 @@
-"""The real ArduPilot Rover SITL, through tests/ardupilot.py, without the companion.
+"""The real ArduPilot Rover SITL, through tests/support/ardupilot.py, without the companion.
 
 These pin what mavhelm assumes about ArduPilot against the binary itself: how long a motorboat
 takes to be armed in GUIDED, that SET_ATTITUDE_TARGET from a companion on SERIAL1 (system 1,
 component 191) drives the boat and that the autopilot stops it 3 s after the last one, and that
-two SITLs run side by side. They need MAVHELM_ARDUPILOT (see tests/ardupilot.py) and skip
+two SITLs run side by side. They need MAVHELM_ARDUPILOT (see tests/support/ardupilot.py) and skip
 without it. Measured figures are printed (run with -s to see them).
 """
 
@@ -14,7 +14,8 @@ import time
 from collections import Counter
 
 import pytest
-from ardupilot import (
+
+from tests.support.ardupilot import (
     ARDUPILOT_ENV,
     ArduPilotConfigError,
     RealOperator,

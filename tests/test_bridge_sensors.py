@@ -29,18 +29,13 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
+from tests.support.ports import free_udp_port
 
 ORIGIN = Origin(56.4120, -5.4760)
 DOWN, FORWARD, UP = (mavlink.MAV_SENSOR_ROTATION_PITCH_270, mavlink.MAV_SENSOR_ROTATION_NONE,
                      mavlink.MAV_SENSOR_ROTATION_PITCH_90)
 SENSOR_NAMES = ("AP_ALTITUDE", "AP_DISTANCE_", "WHEEL_VX_BODY", "TRUTH_", "MAVLINK_ERROR",
                 "MAVLINK_BAD_PACKETS")
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Rig:
@@ -251,7 +246,7 @@ RANGEFINDERS = {"RNGFND1_TYPE": 100, "RNGFND1_ORIENT": 25,   # SITL rangefinder,
 
 @pytest.mark.slow
 def test_real_sitl_rangefinders_and_truth_become_bus_variables(real_sitl) -> None:
-    from ardupilot import RealOperator
+    from tests.support.ardupilot import RealOperator
 
     sitl = real_sitl(model="rover", speedup=10, params=RANGEFINDERS)
     mission = parse_mission(SITL_MISSION.format(port=sitl.ports.serial1), "sitl.moos")

@@ -3,7 +3,6 @@ the way a companion behind mavlink-router or a SITL ``--out`` would be connected
 
 from __future__ import annotations
 
-import socket
 import time
 
 from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
@@ -11,14 +10,9 @@ from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.sitl.simulator import Simulator
+from tests.support.ports import free_udp_port
 
 HOME = Origin(56.4120, -5.4760)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def test_bridge_over_udp_hears_the_autopilot_and_is_heard():

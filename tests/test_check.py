@@ -66,7 +66,7 @@ def test_no_connection_and_no_heartbeat_stop_the_list_early():
 
 
 def test_mavhelm_check_against_the_simulator(tmp_path):
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     demo = ROOT / "examples" / "demo.moos"
     sim = SimProcess("--fast-start", "--speedup", "5", "--mission", str(demo))

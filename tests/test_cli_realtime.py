@@ -11,57 +11,32 @@ import re
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import pytest
 
 from mavhelm.companion.alog import read_alog
 from mavhelm.demo.groundstation import GroundStation
+from tests.support.mission import mission_text
 
 pytestmark = pytest.mark.slow
 
-MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Connect = tcp:127.0.0.1:{port}
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
+TASKS = """
     Task = Timer
-    {{
+    {
         Name = Wait
         TimeOut = 2
         FinishFlag = Go
-    }}
+    }
     Task = ConstantHeading
-    {{
+    {
         Name = East
         Heading = 90
         Thrust = 60
         TimeOut = 6
         StartFlag = Go
         FinishFlag = EndMission
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 60
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        Name = AllStop
-        StartFlag = EndMission
-    }}
-}}
+    }
 """
 
 
@@ -80,7 +55,8 @@ def test_mavhelm_run_drives_mavhelm_sim_in_real_time(tmp_path):
         ports = [int(p) for p in re.findall(r"tcp:127\.0\.0\.1:(\d+)", banner)]
         assert len(ports) == 3, banner
         mission = tmp_path / "east.moos"
-        mission.write_text(textwrap.dedent(MISSION.format(port=ports[0])))
+        mission.write_text(mission_text(TASKS, imavlink={"Connect": f"tcp:127.0.0.1:{ports[0]}"},
+                                         overall_timeout=60, end_name="AllStop"))
         companion = subprocess.Popen(command("run", str(mission), "--log-dir", str(tmp_path)),
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         gcs = GroundStation.connect(f"tcp:127.0.0.1:{ports[1]}")

@@ -1,6 +1,6 @@
 """`mavhelm sim` against the real ArduPilot Rover SITL: the same scenarios on both sides.
 
-Each scenario (tests/conformance.py) runs once per side per module: the real binary at
+The scenario (tests/support/conformance.py) runs once per side per module: the real binary at
 ``--speedup 10`` (about 8 s of wall time; skipped without MAVHELM_ARDUPILOT) and the simulator
 in lockstep (about 2 s). The main one drives the motorboat through the protocol; the turn-rate
 one holds the ``rover`` (stock rover.parm) on a SET_ATTITUDE_TARGET turn for 8 s. Any
@@ -15,19 +15,18 @@ import time
 from typing import Any
 
 import pytest
-from conformance import (
+
+from mavhelm.sitl.flat_earth import Origin
+from tests.support.conformance import (
     DIFFERENCES_DOC,
     Difference,
-    RealSide,
-    SimSide,
     accepted_differences,
     compare,
     run_scenario,
     run_turn_rate_scenario,
     unaccepted,
 )
-
-from mavhelm.sitl.flat_earth import Origin
+from tests.support.sides import RealSide, SimSide
 
 HOME = (56.4120, -5.4760, 0, 90)
 CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
@@ -35,7 +34,7 @@ CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
 
 @pytest.fixture(scope="module")
 def sim_obs() -> dict[str, Any]:
-    from sitl_rig import Rig
+    from tests.support.sitl_rig import Rig
 
     t0 = time.monotonic()
     rig = Rig(model="mavhelm-boat-rudder", fast_start=False, home=Origin(HOME[0], HOME[1]),
@@ -50,7 +49,7 @@ def sim_obs() -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def real_obs(tmp_path_factory) -> dict[str, Any]:
-    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+    from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None:
@@ -72,10 +71,9 @@ TURN_HOME = (56.4120, -5.4760, 0, 90)
 
 @pytest.fixture(scope="module")
 def sim_turn() -> dict[str, Any]:
-    from braking import ROVER_PARM
-    from sitl_rig import Rig
-
     from mavhelm.sitl.parm_file import parse_parm
+    from tests.support.braking import ROVER_PARM
+    from tests.support.sitl_rig import Rig
 
     rig = Rig(model="rover", defaults=parse_parm(ROVER_PARM, "rover.parm"),
               fast_start=False, home=Origin(TURN_HOME[0], TURN_HOME[1]),
@@ -88,7 +86,7 @@ def sim_turn() -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def real_turn(tmp_path_factory) -> dict[str, Any]:
-    from ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
+    from tests.support.ardupilot import SKIP_REASON, RealSitl, ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None:

@@ -9,47 +9,18 @@ import pytest
 
 from mavhelm.core.mission import parse_mission
 from mavhelm.demo.harness import SimulatedRun
+from tests.support.mission import NAV_AP_FALLBACK, mission_text
 
 pytestmark = pytest.mark.slow
 
 GPS_ERROR_ALLOWANCE = 1.5
 """Tasks judge on NAV_X/NAV_Y (GPS); ground truth may differ by this much."""
 
-HEAD = """
-LatOrigin  = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{
-    Connect     = tcp:127.0.0.1:5760
-    OnlineModes = GUIDED
-    MaxTurnRate = 45
-}
-ProcessConfig = pNav
-{
-    X     = GPS @ 2.0, AP @ 2.0
-    Y     = GPS @ 2.0, AP @ 2.0
-    Yaw   = INS @ 1.0, AP @ 2.0
-    Speed = GPS @ 2.0, AP @ 2.0
-}
-ProcessConfig = pHelm
-{
-%s
-    Task = OverallTimeOut
-    {
-        TimeOut    = 400
-        FinishFlag = EndMission
-    }
-    Task = EndMission
-    {
-        Name      = AllStop
-        StartFlag = EndMission
-    }
-}
-"""
-
 
 def mission(tasks: str):
-    return parse_mission(HEAD % tasks, "limits.moos")
+    return parse_mission(mission_text(tasks, imavlink={
+        "Connect": "tcp:127.0.0.1:5760", "OnlineModes": "GUIDED", "MaxTurnRate": 45},
+        nav=NAV_AP_FALLBACK, overall_timeout=400, end_name="AllStop"), "limits.moos")
 
 
 def heading_error(a: float, b: float) -> float:

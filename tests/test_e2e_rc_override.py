@@ -11,52 +11,25 @@ import pytest
 
 from mavhelm.core.mission import parse_mission
 from mavhelm.demo.harness import SimulatedRun
+from tests.support.mission import mission_text
 
 pytestmark = pytest.mark.slow
 
-MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    Actuation     = rc_override
-    SystemID      = {sysid}
-    EngageChannel = 7
-    EngagePWM     = 1800
-    Servo         = WINCH@9:1100-1900
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
+TASKS = """
     Task = ConstantHeading
-    {{
+    {
         Name = East
         Heading = 90
         Thrust = 60
         TimeOut = NEVER
-    }}
+    }
     Task = SetActuator
-    {{
+    {
         Name = Winch
         Actuator = WINCH
         Value = 50
         TimeOut = NEVER
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
+    }
 """
 
 RECORD = {"HELM_ONLINE", "HELM_STATUS", "AP_CMD_RC_STEER", "AP_CMD_RC_THROTTLE",
@@ -64,7 +37,9 @@ RECORD = {"HELM_ONLINE", "HELM_STATUS", "AP_CMD_RC_STEER", "AP_CMD_RC_THROTTLE",
 
 
 def start(sysid: int) -> SimulatedRun:
-    mission = parse_mission(MISSION.format(sysid=sysid), "rc.moos")
+    mission = parse_mission(mission_text(TASKS, imavlink={
+        "Actuation": "rc_override", "SystemID": sysid, "EngageChannel": 7, "EngagePWM": 1800,
+        "Servo": "WINCH@9:1100-1900"}), "rc.moos")
     run = SimulatedRun.start(mission, fast_start=True, operator_mode="MANUAL", record=RECORD)
     run.hand_over()
     return run

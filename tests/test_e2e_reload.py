@@ -10,52 +10,35 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.demo.harness import SimulatedRun
+from tests.support.mission import mission_text
 
 pytestmark = pytest.mark.slow
 
-MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    RemoteFlag = GoHome
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
+TASKS = """
     Task = ConstantHeading
-    {{
+    {
         Name = Leg
-        Heading = {heading}
+        Heading = %s
         Thrust = 60
         TimeOut = NEVER
-        {extra}
-    }}
+    }
     Task = GoToWayPoint
-    {{
+    {
         Name = Home
         Priority = 2
         Location = 0,0
         Thrust = 60
         StartFlag = GoHome
         FinishFlag = EndMission
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
+    }
 """
+
+
+def mission(heading: object) -> str:
+    """A leg on ``heading`` (line 19), and Home on the ground station's GoHome flag."""
+    return mission_text(TASKS % heading, imavlink={"RemoteFlag": "GoHome"})
+
+
 RECORD = {"HELM_RELOADED", "HELM_RELOAD_ERROR", "HELM_WARNING", "TASK_STARTED", "GoHome",
           "REMOTE_FLAG", "MAVLINK_WARNING"}
 
@@ -75,7 +58,7 @@ def acks(run: SimulatedRun, command: int) -> list[int]:
 @pytest.fixture
 def running(tmp_path: Path):
     path = tmp_path / "mission.moos"
-    path.write_text(MISSION.format(heading=90, extra=""))
+    path.write_text(mission(90))
     with SimulatedRun.start(path, record=RECORD) as run:
         run.hand_over()
         run.run_for(20.0)
@@ -84,7 +67,7 @@ def running(tmp_path: Path):
 
 def test_a_broken_reload_keeps_the_running_mission(running):
     run, path = running
-    path.write_text(MISSION.format(heading="nan", extra=""))
+    path.write_text(mission("nan"))
     to_companion(run, mavlink.MAV_CMD_USER_1, 1)
     run.run_for(2.0)
     assert acks(run, mavlink.MAV_CMD_USER_1) == [mavlink.MAV_RESULT_ACCEPTED]
@@ -102,7 +85,7 @@ def test_a_broken_reload_keeps_the_running_mission(running):
 def test_a_good_reload_replaces_the_mission(running):
     run, path = running
     old_helm = run.companion.helm
-    path.write_text(MISSION.format(heading=270, extra=""))
+    path.write_text(mission(270))
     to_companion(run, mavlink.MAV_CMD_USER_1, 1)
     run.run_for(40.0)
     assert [m.string for m in run.values("HELM_RELOADED")] == [f"{path}: 4 tasks"]
@@ -129,7 +112,7 @@ def test_a_guest_asks_over_mavlink_and_gets_its_answer(tmp_path: Path):
     from mavhelm.companion.link import AutopilotLink
     from mavhelm.core.thirdparty import ThirdPartyRequest
 
-    text = MISSION.format(heading=90, extra="").replace(
+    text = mission(90).replace(
         "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint\n"
         "    Task = ConstantHeading", 1)
     path = tmp_path / "guest.moos"

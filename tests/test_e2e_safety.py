@@ -11,49 +11,27 @@ import pytest
 from mavhelm.core.mission import parse_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.sitl.faults import Scenario
+from tests.support.mission import mission_text
 
 pytestmark = pytest.mark.slow
 
-MISSION = """
-LatOrigin = 56.4120
-LongOrigin = -5.4760
-ProcessConfig = iMAVLink
-{{
-    OnlineModes = GUIDED
-}}
-ProcessConfig = pNav
-{{
-    X   = {x_queue}
-    Y   = {x_queue}
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
+TASKS = """
     Task = GoToWayPoint
-    {{
+    {
         Name = FarAway
         Location = 0, 3000
         Radius = 5
         Thrust = 60
         TimeOut = NEVER
         FinishFlag = EndMission
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 2000
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        Name = AllStop
-        StartFlag = EndMission
-    }}
-}}
+    }
 """
 
 
 def start(x_queue: str, scenario: str, params: dict[str, float] | None = None) -> SimulatedRun:
-    mission = parse_mission(MISSION.format(x_queue=x_queue), "safety.moos")
+    mission = parse_mission(mission_text(
+        TASKS, imavlink={"OnlineModes": "GUIDED"}, overall_timeout=2000, end_name="AllStop",
+        nav={"X": x_queue, "Y": x_queue, "Yaw": "INS @ 1.0"}), "safety.moos")
     return SimulatedRun.start(mission, fast_start=True,
                               scenario=Scenario.from_text(scenario, "safety.scn"),
                               record={"NAV_Y_SOURCE"}, params=params)

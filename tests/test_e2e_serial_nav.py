@@ -4,72 +4,34 @@ NAV_* ahead of the autopilot's own (spec 2.1), all as separate processes on the 
 
 from __future__ import annotations
 
-import re
 import signal
 import subprocess
 import sys
 import time
 
 import pytest
-from interop_helpers import SimProcess
 
 from mavhelm.companion.alog import read_alog
+from tests.support.interop_helpers import SimProcess
+from tests.support.mission import block, mission_text
 
 pytestmark = pytest.mark.slow
 
-MISSION = """
-LatOrigin = 50.1
-LongOrigin = -4.2
-ProcessConfig = iMAVLink
-{{
-    Connect = tcp:127.0.0.1:{port}
-}}
-ProcessConfig = iSerial_GPS
-{{
-    Name = SGPS
-    Port = {gps}
-    Sentences = GGA,RMC
-}}
-ProcessConfig = iSerial_Compass
-{{
-    Name = HDG
-    Port = {heading}
-    Sentences = HDT
-}}
-ProcessConfig = pNav
-{{
-    X = SGPS @ 3, GPS @ 2
-    Y = SGPS @ 3, GPS @ 2
-    Heading = HDG @ 1, INS @ 1
-}}
-ProcessConfig = pHelm
-{{
-    Task = OverallTimeOut
-    {{
-        TimeOut = 600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+def serial_mission(port: int, gps: str, heading: str) -> str:
+    """No tasks: pNav on the serial GPS and compass, the autopilot's as fall-backs."""
+    serial = block("iSerial_GPS", {"Name": "SGPS", "Port": gps, "Sentences": "GGA,RMC"})
+    compass = block("iSerial_Compass", {"Name": "HDG", "Port": heading, "Sentences": "HDT"})
+    return mission_text(origin=(50.1, -4.2), imavlink={"Connect": f"tcp:127.0.0.1:{port}"},
+                        blocks=serial + "\n" + compass, overall_timeout=600,
+                        nav={"X": "SGPS @ 3, GPS @ 2", "Y": "SGPS @ 3, GPS @ 2",
+                             "Heading": "HDG @ 1, INS @ 1"})
 
 
 def test_serial_gps_and_heading_feed_nav_through_mavhelm_run(tmp_path):
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while not {"nmea_gps", "heading"} <= set(paths):
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading")
         mission = tmp_path / "serial.moos"
-        mission.write_text(MISSION.format(port=sim.ports[1], gps=paths["nmea_gps"],
-                                          heading=paths["heading"]))
+        mission.write_text(serial_mission(sim.ports[1], paths["nmea_gps"], paths["heading"]))
         logs = tmp_path / "logs"
         proc = subprocess.Popen([sys.executable, "-m", "mavhelm.cli", "run", str(mission),
                                  "--log-dir", str(logs)], stdout=subprocess.PIPE,

@@ -17,53 +17,20 @@ from mavhelm.demo.harness import SimulatedRun
 from mavhelm.sitl.truth import Truth
 from mavhelm.tasks.geometry import Point2, bearing, distance, lawnmower, track_position
 from mavhelm.tasks.survey import CAPTURE
+from tests.support.mission import NAV_AP_FALLBACK, mission_text
 
 pytestmark = pytest.mark.slow
 
 GPS_ALLOWANCE = 1.5
 """How far the truth may be from where the navigation (GPS) put the vehicle, in metres."""
 
-MISSION = """
-LatOrigin  = 56.4120
-LongOrigin = -5.4760
-
-ProcessConfig = iMAVLink
-{{
-    OnlineModes = GUIDED
-    MaxTurnRate = 45
-}}
-
-ProcessConfig = pNav
-{{
-    X     = GPS @ 2.0, AP @ 2.0
-    Y     = GPS @ 2.0, AP @ 2.0
-    Yaw   = INS @ 1.0, AP @ 2.0
-    Speed = GPS @ 2.0, AP @ 2.0
-}}
-
-ProcessConfig = pHelm
-{{
-    AppTick = 10
-{tasks}
-    Task = OverallTimeOut
-    {{
-        Name       = Clock
-        TimeOut    = {limit}
-        FinishFlag = EndMission
-    }}
-
-    Task = EndMission
-    {{
-        Name      = AllStop
-        StartFlag = EndMission
-    }}
-}}
-"""
-
 
 def fly(name: str, tasks: str, limit: float, record: set[str],
         params: dict[str, float] | None = None) -> SimulatedRun:
-    mission = parse_mission(MISSION.format(tasks=tasks, limit=limit), f"{name}.moos")
+    mission = parse_mission(mission_text(
+        tasks, imavlink={"OnlineModes": "GUIDED", "MaxTurnRate": 45}, nav=NAV_AP_FALLBACK,
+        helm={"AppTick": 10}, overall_timeout=limit, clock_name="Clock", end_name="AllStop"),
+        f"{name}.moos")
     with SimulatedRun.start(mission, fast_start=True, params=params, record=record) as run:
         assert run.run_mission(max_time=limit + 10.0), f"{name}: the mission never ended"
     return run

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-from helm_rig import FILE, Rig, Spec, one, safety, values
 
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
@@ -13,6 +12,7 @@ from mavhelm.core.mission import Block, Mission, MissionError
 from mavhelm.tasks.base import NavState, Task, Votes
 from mavhelm.tasks.helm import Helm
 from mavhelm.tasks.registry import TASK_TYPES
+from tests.support.helm_rig import FILE, Rig, Spec, one, safety, values
 
 
 def south_north() -> tuple[Spec, list[Block]]:

@@ -15,11 +15,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import threading
-import time
 
 import pytest
-from interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
 from pymavlink import mavutil
+
+from tests.support.interop_helpers import Companion, MavproxyProcess, SimProcess, armed, modes_of
+from tests.support.mission import mission_text
+from tests.support.waiting import wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -82,43 +84,20 @@ def test_mavproxy_mode_guided_is_seen_by_the_companion_link(tmp_path):
                 assert hb.custom_mode == GUIDED
 
 
-RELOAD_MISSION = """
-LatOrigin = 56.0
-LongOrigin = -3.0
-ProcessConfig = iMAVLink
-{{
-    RemoteFlag = GoHome
-}}
-ProcessConfig = pNav
-{{
-    X = GPS @ 2.0
-    Y = GPS @ 2.0
-    Yaw = INS @ 1.0
-}}
-ProcessConfig = pHelm
-{{
-    Task = Timer
-    {{
-        Name = {name}
-        TimeOut = 600
-    }}
-    Task = Timer
-    {{
-        Name = Home
-        TimeOut = 600
-        StartFlag = GoHome
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut = 3600
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
-"""
+def reload_mission(name: str) -> str:
+    """A Timer ``name`` and a Timer Home on the ground station's GoHome flag."""
+    return mission_text(f"""
+        Task = Timer
+        {{
+            Name = {name}
+            TimeOut = 600
+        }}
+        Task = Timer
+        {{
+            Name = Home
+            TimeOut = 600
+            StartFlag = GoHome
+        }}""", origin=(56.0, -3.0), imavlink={"RemoteFlag": "GoHome"})
 
 
 def test_the_documented_mavproxy_lines_reload_the_helm_and_post_a_remote_flag(tmp_path):
@@ -126,7 +105,7 @@ def test_the_documented_mavproxy_lines_reload_the_helm_and_post_a_remote_flag(tm
     `long USER_2 1` (the first RemoteFlag), typed into a real MAVProxy."""
     _import_mavproxy()
     mission = tmp_path / "reload.moos"
-    mission.write_text(RELOAD_MISSION.format(name="First"))
+    mission.write_text(reload_mission("First"))
     with SimProcess("--fast-start") as sim:
         companion_port, gcs_port = sim.ports[1], sim.ports[0]
         proc = subprocess.Popen(
@@ -139,19 +118,15 @@ def test_the_documented_mavproxy_lines_reload_the_helm_and_post_a_remote_flag(tm
         reader.start()
 
         def wait_line(fragment: str, seconds: float) -> str:
-            deadline = time.monotonic() + seconds
-            while time.monotonic() < deadline:
-                found = [line for line in list(lines) if fragment in line]
-                if found:
-                    return found[-1]
-                time.sleep(0.05)
-            raise AssertionError(f"no {fragment!r} from the companion: {lines[-10:]}")
+            found = wait_for(lambda: [line for line in list(lines) if fragment in line],
+                             seconds, f"{fragment!r} from the companion", lambda: lines[-10:])
+            return found[-1]
 
         try:
             wait_line("link to tcp:127.0.0.1", 15)
             with MavproxyProcess(f"tcp:127.0.0.1:{gcs_port}", tmp_path) as mavproxy:
                 mavproxy.wait_for(r"Detected vehicle 1:1", 15)
-                mission.write_text(RELOAD_MISSION.format(name="Second"))
+                mission.write_text(reload_mission("Second"))
                 mavproxy.send("set target_component 191")
                 mavproxy.send("long USER_1 1")
                 line = wait_line("helm reloaded", 15)

@@ -25,10 +25,11 @@ import math
 import time
 
 import pytest
-from interop_helpers import Companion, RealtimeSim, SimProcess, armed, wait_until
 from pymavlink import mavutil
 
 from mavhelm.core.geodesy import Origin
+from tests.support.interop_helpers import Companion, RealtimeSim, SimProcess, armed
+from tests.support.waiting import wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -144,8 +145,8 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
                                        else c.Vehicle.GENERIC)
 
         # Flight mode: MANUAL once the autopilot has initialised, as the simulator says.
-        wait_until(lambda: c.telemetry.flight_mode() == FM.MANUAL, 10,
-                   "MAVSDK flight_mode MANUAL", c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == FM.MANUAL, 10,
+                 "MAVSDK flight_mode MANUAL", c.telemetry.flight_mode)
         assert rs.sim.mode == "MANUAL"
 
         # Position: once the EKF uses GPS, MAVSDK's position is the vehicle's (within GPS noise)
@@ -156,7 +157,7 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
             p = c.telemetry.position()
             return p if math.isfinite(p.latitude_deg) and p.latitude_deg != 0.0 else None
 
-        wait_until(fix, 10, "a position from MAVSDK", c.telemetry.position)
+        wait_for(fix, 10, "a position from MAVSDK", c.telemetry.position)
         time.sleep(1.2)  # a fresh GLOBAL_POSITION_INT, sent after the EKF position is good
         pos = c.telemetry.position()
         with rs.lock:
@@ -175,21 +176,21 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
         assert not rs.sim.armed and not c.telemetry.armed()
         c.action.arm()  # raises ActionError unless the COMMAND_ACK is ACCEPTED
         assert rs.sim.armed
-        wait_until(c.telemetry.armed, 5, "MAVSDK to see the vehicle armed")
+        wait_for(c.telemetry.armed, 5, "MAVSDK to see the vehicle armed")
 
         # HOLD through Action.hold(), which MAVSDK maps to ArduPilot Rover mode 4.
         c.action.hold()
         assert rs.sim.mode == "HOLD"
-        wait_until(lambda: c.telemetry.flight_mode() == FM.HOLD, 5,
-                   "MAVSDK flight_mode HOLD", c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == FM.HOLD, 5,
+                 "MAVSDK flight_mode HOLD", c.telemetry.flight_mode)
 
         # GUIDED (15): no Action call for it, so DO_SET_MODE through MavlinkDirect.
         ack = c.set_custom_mode(GUIDED)
         assert ack["command"] == MAV_CMD_DO_SET_MODE and ack["result"] == MAV_RESULT_ACCEPTED, ack
         assert rs.sim.mode == "GUIDED"
-        wait_until(lambda: c.telemetry.flight_mode() == FM.OFFBOARD, 5,
-                   "MAVSDK flight_mode OFFBOARD (its name for ArduPilot GUIDED)",
-                   c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == FM.OFFBOARD, 5,
+                 "MAVSDK flight_mode OFFBOARD (its name for ArduPilot GUIDED)",
+                 c.telemetry.flight_mode)
 
         # A mode Rover does not have is refused, and nothing changes.
         ack = c.set_custom_mode(2)
@@ -198,7 +199,7 @@ def test_mavsdk_sees_the_vehicle_arms_it_and_changes_its_mode(vehicle, client_on
 
         c.action.disarm()
         assert not rs.sim.armed
-        wait_until(lambda: not c.telemetry.armed(), 5, "MAVSDK to see the vehicle disarmed")
+        wait_for(lambda: not c.telemetry.armed(), 5, "MAVSDK to see the vehicle disarmed")
         rs.check()
 
 
@@ -208,16 +209,16 @@ def test_mavsdk_goto_location_drives_the_rover_and_its_position_follows(client_o
     with RealtimeSim(model="mavhelm-rover", home=HOME) as rs:
         c = client_on(rs.ports[1])
         rs.wait(lambda s: s.autopilot.position_ok(), 10, "the EKF to use GPS")
-        wait_until(lambda: math.isfinite(c.telemetry.position().latitude_deg), 10,
-                   "a position from MAVSDK", c.telemetry.position)
+        wait_for(lambda: math.isfinite(c.telemetry.position().latitude_deg), 10,
+                 "a position from MAVSDK", c.telemetry.position)
         time.sleep(1.2)
         c.action.arm()
         assert rs.sim.armed
         target = HOME.to_global(0.0, 12.0)  # 12 m north of home
         c.action.goto_location(target[0], target[1], 0.0, float("nan"))
         assert rs.sim.mode == "GUIDED"
-        wait_until(lambda: c.telemetry.flight_mode() == c.FlightMode.OFFBOARD, 5,
-                   "MAVSDK flight_mode OFFBOARD", c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == c.FlightMode.OFFBOARD, 5,
+                 "MAVSDK flight_mode OFFBOARD", c.telemetry.flight_mode)
         # Moving: compare MAVSDK's position with the truth a few times on the way.
         rs.wait(lambda s: s.truth.y > 3.0, 15, "the rover to drive 3 m north")
         worst = 0.0
@@ -230,9 +231,9 @@ def test_mavsdk_goto_location_drives_the_rover_and_its_position_follows(client_o
             time.sleep(0.5)
         assert worst < 4.0, f"MAVSDK position {worst:.1f} m from the truth while driving"
         rs.wait(lambda s: s.truth.y > 9.0, 20, "the rover to reach the target")
-        wait_until(lambda: HOME.to_local(c.telemetry.position().latitude_deg,
+        wait_for(lambda: HOME.to_local(c.telemetry.position().latitude_deg,
                                          c.telemetry.position().longitude_deg)[1] > 8.0, 5,
-                   "MAVSDK's position near the target", c.telemetry.position)
+                 "MAVSDK's position near the target", c.telemetry.position)
         c.action.hold()
         assert rs.sim.mode == "HOLD"
         rs.check()
@@ -249,8 +250,8 @@ def test_mavsdk_against_the_mavhelm_sim_command(client_on):
         companion.wait_for("EKF_STATUS_REPORT",
                            lambda m: m.flags & mavutil.mavlink.EKF_POS_HORIZ_ABS, 10,
                            "the EKF to report an absolute horizontal position")
-        wait_until(lambda: c.telemetry.flight_mode() == c.FlightMode.MANUAL, 5,
-                   "MAVSDK flight_mode MANUAL", c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == c.FlightMode.MANUAL, 5,
+                 "MAVSDK flight_mode MANUAL", c.telemetry.flight_mode)
         time.sleep(1.2)
         pos = c.telemetry.position()
         gpi = companion.wait_for("GLOBAL_POSITION_INT", lambda m: m.lat != 0, 3,
@@ -267,5 +268,5 @@ def test_mavsdk_against_the_mavhelm_sim_command(client_on):
         hb = companion.wait_for("HEARTBEAT", lambda m: m.custom_mode == GUIDED, 5,
                                 "HEARTBEAT custom_mode 15 (GUIDED)")
         assert armed(hb)
-        wait_until(lambda: c.telemetry.flight_mode() == c.FlightMode.OFFBOARD, 5,
-                   "MAVSDK flight_mode OFFBOARD", c.telemetry.flight_mode)
+        wait_for(lambda: c.telemetry.flight_mode() == c.FlightMode.OFFBOARD, 5,
+                 "MAVSDK flight_mode OFFBOARD", c.telemetry.flight_mode)

@@ -12,12 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.link import READ_BUDGET, AutopilotLink, TcpTransport, transport_for
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from tests.support.ports import free_port
 
 
 class Autopilot:

@@ -13,7 +13,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from filterpy.common import Q_continuous_white_noise
-from fusion_rig import replay, track_accuracy
 
 from mavhelm.nav.ekf import (
     EKF,
@@ -36,6 +35,7 @@ from mavhelm.nav.ekf import (
 from mavhelm.nav.fusion import Start
 from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix, solve
 from mavhelm.nav.replay import accuracy
+from tests.support.fusion_rig import replay, track_accuracy
 
 BEACONS = [Beacon("A", -30.0, -30.0), Beacon("B", 30.0, -30.0), Beacon("C", 30.0, 30.0),
            Beacon("D", -30.0, 30.0)]

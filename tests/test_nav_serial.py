@@ -17,7 +17,6 @@ import time
 from pathlib import Path
 
 import pytest
-from nav_sim_rig import LAT, LON, SERIAL, NavRun, mission_text
 
 from mavhelm.companion.link import RETRY_MAX_S
 from mavhelm.core.mission import parse_mission
@@ -25,6 +24,7 @@ from mavhelm.demo.harness import SimulatedRun
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.serial_sensors import EchoSounder, HeadingSensor, NmeaGps, PtySerialPort
+from tests.support.nav_sim_rig import LAT, LON, SERIAL, NavRun, mission_text
 
 pytestmark = pytest.mark.slow
 

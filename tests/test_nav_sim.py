@@ -6,19 +6,10 @@ against the simulator's ground truth."""
 from __future__ import annotations
 
 import pytest
-from nav_sim_rig import start
+
+from tests.support.nav_sim_rig import DEAD_RECKONING, start
 
 pytestmark = pytest.mark.slow
-
-DEAD_RECKONING = """
-    X = GPS @ 2, EKF @ 2
-    Y = GPS @ 2, EKF @ 2
-    Heading = HDG @ 1, INS @ 1
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
-    SENSOR_BODY_VEL    = DVL -> dvl @ 0,0,-0.3 ~ 0.02, 0.02
-    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
-"""
 
 RANGES = """
     X = GPS @ 2, EKF @ 2
@@ -176,7 +167,7 @@ def test_an_unobservable_setup_is_a_navigation_failure_and_ends_the_mission(tmp_
     LSQ_TIMEOUT the navigator declares the failure; EndMission takes the helm."""
     nav = (RANGES.replace("    SENSOR_XY          = GPS -> gps ~ 2\n", "")
            + "    EKF_X = 0\n    EKF_Y = 0\n    EKF_SIGMA_XY = 2\n    LSQ_TIMEOUT = 20\n")
-    from nav_sim_rig import BEACONS
+    from tests.support.nav_sim_rig import BEACONS
 
     run = start(nav, ranging="radio", dvl=False, tmp_path=tmp_path, beacons=BEACONS[:2],
                 record=("DESIRED_THRUST",))

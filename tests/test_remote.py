@@ -21,7 +21,6 @@ import threading
 import time
 
 import pytest
-from interop_helpers import REPO, Companion, SimProcess, _child_env, wait_until
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.remote import (
@@ -32,6 +31,8 @@ from mavhelm.companion.remote import (
 )
 from mavhelm.companion.status import HelmReloaded, HelmState, MissionEnded, TaskEnded, TaskStarted
 from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, encode
+from tests.support.interop_helpers import REPO, Companion, SimProcess, _child_env
+from tests.support.waiting import wait_for
 
 AP = (1, 1)
 COMPANION = (1, 191)
@@ -605,8 +606,8 @@ class PtyConsole:
             found = rx.search(self.text()[since:])
             return found.group(0) if found else None
 
-        return wait_until(seen, timeout, f"the console to show {pattern!r}",
-                          lambda: "\n" + self.screen())
+        return wait_for(seen, timeout, f"the console to show {pattern!r}",
+                        lambda: "\n" + self.screen())
 
     def press(self, key: str) -> int:
         at = self.mark()

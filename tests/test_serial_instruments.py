@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import time
 import tty
 from dataclasses import dataclass, field
@@ -20,7 +19,6 @@ from dataclasses import dataclass, field
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from nmea_read import read_sentence
 
 from mavhelm.companion.link import SerialTransport
 from mavhelm.companion.serial_instruments import (
@@ -38,6 +36,8 @@ from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import Block, Entry, MissionError, parse_mission
 from mavhelm.sitl import nmea
+from tests.support.nmea_read import read_sentence
+from tests.support.waiting import wait_for
 
 ORIGIN = Origin(50.1, -4.2)
 T0 = 1000.0
@@ -634,12 +634,12 @@ class Pty:
 def pump(app: SerialInstrument, clock: SimClock, until, timeout: float = 3.0,
          step: float = 0.05) -> None:
     """Tick (simulated time, real pty I/O) until ``until()`` or fail after timeout wall s."""
-    deadline = time.monotonic() + timeout
-    while not until():
-        assert time.monotonic() < deadline, "timed out"
+    def tick() -> None:
         clock.advance(step)
         app.iterate(clock.now())
         time.sleep(0.01)
+
+    wait_for(until, timeout, "the instrument's condition", pause=tick)
 
 
 def test_a_device_behind_a_symlink_vanishes_and_returns(tmp_path) -> None:
@@ -732,7 +732,7 @@ def test_a_flooded_pty_never_holds_up_the_tick() -> None:
 def test_mavhelm_sim_sensors_read_by_the_instruments(tmp_path) -> None:
     """The real command: its printed ptys read by four readers configured as a boat's would
     be; values near the simulator's truth (at home, heading 90°, 20 m of water, still)."""
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     scenario = tmp_path / "noisy.scn"
     scenario.write_text("seed = 3\n"
@@ -740,14 +740,7 @@ def test_mavhelm_sim_sensors_read_by_the_instruments(tmp_path) -> None:
                         "serial_truncate always port=heading prob=0.2\n")
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90",
                     "--beacons", "1:100,0,-10;2:0,-150,-10", "--scenario", str(scenario)) as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while len(paths) < 5:
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading", "depth", "dvl", "lbl")
         assert set(paths) == {"nmea_gps", "heading", "depth", "dvl", "lbl"}
         clock = SimClock(time.monotonic())
         bus = Bus(clock)

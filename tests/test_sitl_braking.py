@@ -1,7 +1,7 @@
 """How `mavhelm sim --model motorboat` brakes under its autopilot, against the real SITL.
 
-The script (tests/braking.py): armed in GUIDED, drive straight at 1.6 m/s, then at 4 m/s, with
-a refreshed SET_POSITION_TARGET_LOCAL_NED velocity, and stop each way ArduPilot stops a boat:
+The script (tests/support/braking.py): armed in GUIDED, drive straight at 1.6 m/s, then at 4 m/s,
+with a refreshed SET_POSITION_TARGET_LOCAL_NED velocity, and stop each way ArduPilot stops a boat:
 
 - ``timeout``: the target is no longer refreshed; after 3 s "target not received last 3secs,
   stopping" and the boat loiters at its stopping point (ModeGuided::update → start_loiter →
@@ -24,19 +24,19 @@ import time
 from pathlib import Path
 
 import pytest
-from braking import (
+
+from tests.support.braking import (
     CALM,
     CASES,
     HOME,
-    RealBrakeSide,
-    SimBrakeSide,
     figures,
     label,
     print_table,
     sim_rig,
     write_stock_parms,
 )
-from braking import run_braking as _run
+from tests.support.braking import run_braking as _run
+from tests.support.sides import RealSide, SimSide
 
 # The real ArduRover 4.8-dev SITL (../shared/ardupilot/ardurover, --model motorboat, --defaults
 # rover.parm,motorboat.parm + SIM_WIND_SPD 0, SIM_WAVE_ENABLE 0, --speedup 10), measured with
@@ -89,7 +89,7 @@ def _check(stops, reference: dict[str, dict[str, float]]) -> list[str]:
 def _sim_stops(params_dir: Path):
     rig = sim_rig(params_dir)
     try:
-        return _run(SimBrakeSide(rig))
+        return _run(SimSide(rig, 0.02, companion=False))
     finally:
         rig.close()
 
@@ -145,7 +145,7 @@ def test_sim_brakes_as_the_real_sitl(real_sitl, sim_stops) -> None:
     """The real binary and the simulator through the same script: figures within tolerance."""
     t0 = time.monotonic()
     sitl = real_sitl(model="motorboat", speedup=10, home=HOME, params=CALM)
-    side = RealBrakeSide(sitl)
+    side = RealSide(sitl, companion=False)
     try:
         real = _run(side, CASES)
     finally:

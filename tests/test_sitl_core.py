@@ -1,7 +1,7 @@
 """Conformance of the simulator's MAVLink side with ArduPilot Rover, through real sockets.
 
 Each test drives a Simulator with a SimClock and talks to it with pymavlink, as a companion or
-a ground station would. ``Rig`` (tests/sitl_rig.py; the ``rig`` fixture is in conftest.py)
+a ground station would. ``Rig`` (tests/support/sitl_rig.py; the ``rig`` fixture is in conftest.py)
 delivers bytes exactly (byte counters + FIONREAD), so the tests are deterministic and need no
 sleeps. The lockstep driver's own stall limit is tested at the end.
 """
@@ -13,10 +13,10 @@ import time
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
-from sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 from mavhelm.core.clock import SimClock
 from mavhelm.sitl.lockstep import STALL_ENV, Lockstep, LockstepError, stall_limit
+from tests.support.sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 M = mavlink
 

@@ -8,9 +8,9 @@ import socket
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
-from sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 from mavhelm.sitl.modes import GuidedSubMode
+from tests.support.sitl_rig import FakeFault, FakeScenario, Rig, arm_guided, command
 
 M = mavlink
 
@@ -681,7 +681,7 @@ def test_mavproxy_falls_back_from_mavftp_to_param_list_at_once(tmp_path):
     """MAVProxy first tries MAVFTP for the parameters; with the NAK it falls back to
     PARAM_REQUEST_LIST at once (measured: ~2 s; it took ~12 s to time out before). Without
     the NAK, "FTP: request timed out" is printed ~10 s in, well inside the 15 s wait."""
-    from interop_helpers import MavproxyProcess, SimProcess
+    from tests.support.interop_helpers import MavproxyProcess, SimProcess
 
     with SimProcess("--fast-start") as sim, \
             MavproxyProcess(f"tcp:127.0.0.1:{sim.ports[1]}", tmp_path) as mavproxy:

@@ -10,12 +10,12 @@ import time
 from pathlib import Path
 
 import pytest
-from nmea_read import ParseError, read_sentence
 
 from mavhelm.core.clock import SimClock
 from mavhelm.sitl import runner
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.simulator import Simulator
+from tests.support.nmea_read import ParseError, read_sentence
 
 
 def _parse(*argv: str) -> argparse.Namespace:
@@ -221,23 +221,15 @@ def _gga_position(line: bytes) -> tuple[float, float] | None:
 def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
     """The real command: read the printed pty path with pyserial, as a companion would, and
     get valid GGA at the --home position."""
-    import re
     import signal
 
     import serial
-    from interop_helpers import SimProcess
 
     from mavhelm.sitl.flat_earth import Origin
+    from tests.support.interop_helpers import SimProcess
 
     with SimProcess("--fast-start", "--sensors", "--home", "50.1,-4.2,90") as sim:
-        paths: dict[str, str] = {}
-        deadline = time.monotonic() + 10
-        while len(paths) < 4:
-            line = sim.output.next_line(deadline - time.monotonic())
-            assert line is not None, sim.output.text()
-            m = re.match(r"mavhelm sim: (\w+) on (/dev/\S+) \(", line)
-            if m:
-                paths[m.group(1)] = m.group(2)
+        paths = sim.sensor_paths("nmea_gps", "heading", "depth", "dvl")
         assert set(paths) == {"nmea_gps", "heading", "depth", "dvl"}
         fixes = []
         with serial.Serial(paths["nmea_gps"], 4800, timeout=0.5) as gps:
@@ -266,7 +258,7 @@ def test_mavhelm_sim_sensors_serve_nmea_gps_on_a_pty():
 
 
 def test_mavhelm_sim_starts_at_the_missions_origin():
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     mission = Path(__file__).resolve().parents[1] / "examples" / "demo.moos"
     sim = SimProcess("--mission", str(mission))

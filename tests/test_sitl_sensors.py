@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from nmea_read import ParseError, latlon, read_sentence
 
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
@@ -23,6 +22,7 @@ from mavhelm.sitl.serial_sensors import (
     update_all,
 )
 from mavhelm.sitl.truth import Truth
+from tests.support.nmea_read import ParseError, latlon, read_sentence
 
 ORIGIN = Origin(50.36, -4.14)
 BEACONS = [

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pynmea2
 import pytest
-from nmea_read import ParseError, latlon, read_sentence
 
 from mavhelm.sitl import nmea
+from tests.support.nmea_read import ParseError, latlon, read_sentence
 
 T0 = 1_767_225_600.0 + 13 * 3600 + 45 * 60 + 7.25  # 2026-01-01 13:45:07.25 UTC
 

@@ -6,12 +6,12 @@ import time
 
 import pytest
 import serial
-from nmea_read import ParseError, read_sentence
 
 from mavhelm.sitl.faults import Scenario
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.serial_sensors import HeadingSensor, NmeaGps, PtySerialPort
 from mavhelm.sitl.truth import Truth
+from tests.support.nmea_read import ParseError, read_sentence
 
 
 def truth(t: float) -> Truth:

@@ -20,7 +20,6 @@ import time
 
 import pytest
 import serial
-from nmea_read import read_sentence
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.clock import AutopilotClock
@@ -36,6 +35,7 @@ from mavhelm.sitl.instruments_runner import (
 from mavhelm.sitl.runner import make_sensor_ports
 from mavhelm.sitl.serial_sensors import Beacon, HeadingSensor, NmeaGps, RadioRanges, SensorPort
 from mavhelm.sitl.truth_feed import BootTimeScenario, TruthFeed, heading_of_yaw, stream_requests
+from tests.support.nmea_read import read_sentence
 
 ORIGIN = Origin(56.4120, -5.4760)
 AUTOPILOT = (1, 1)
@@ -438,7 +438,7 @@ def _heading_at(track: list[tuple[float, float, float, float]], boot_s: float) -
 
 
 def test_instruments_beside_the_real_sitl_agree_with_its_simstate(real_sitl, tmp_path) -> None:
-    from ardupilot import RealOperator
+    from tests.support.ardupilot import RealOperator
 
     sitl = real_sitl(model="motorboat", speedup=10)
     op = RealOperator(sitl.ports.serial0, heartbeat_s=0.1)   # starts the SITL's clock

@@ -16,13 +16,13 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
-from sitl_rig import Rig, command
 
 from mavhelm.sitl import runner
 from mavhelm.sitl.autopilot import ARDUPILOT_DEFAULTS, default_params
 from mavhelm.sitl.boat import SimEnvironment
 from mavhelm.sitl.models import DEFAULT_MODEL, HULL_MODELS, MODELS, SITL_MODELS, get_model
 from mavhelm.sitl.simulator import DT
+from tests.support.sitl_rig import Rig, command
 
 M = mavlink
 
@@ -167,7 +167,7 @@ def test_ardupilot_defaults_are_the_firmwares(real_sitl, tmp_path):
     """The real SITL started with an empty defaults file answers ARDUPILOT_DEFAULTS, and every
     other name of the simulator's table it has with the table's value (FRAME_CLASS apart: the
     stock files set it; GPS1_RATE_MS is the simulator's own)."""
-    from ardupilot import connect_tcp
+    from tests.support.ardupilot import connect_tcp
 
     empty = tmp_path / "empty.parm"
     empty.write_text("")
@@ -222,7 +222,7 @@ def test_runner_model_options(capsys, tmp_path):
 
 
 def _stock_dir() -> Path:
-    from ardupilot import ardupilot_binary
+    from tests.support.ardupilot import ardupilot_binary
 
     binary = ardupilot_binary()
     if binary is None or not (binary.parent / "params" / "motorboat.parm").is_file():
@@ -246,7 +246,7 @@ def test_mavhelm_sim_model_and_defaults_answer_the_files_parameters(stock, tmp_p
     """The command itself, as a ground station meets it: ``mavhelm sim --model motorboat
     --defaults rover.parm,motorboat.parm`` is a boat with steering and throttle that answers the
     files' values, and says which line it skipped."""
-    from interop_helpers import SimProcess
+    from tests.support.interop_helpers import SimProcess
 
     if stock:
         d = _stock_dir()

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import pytest
 
-from mavhelm.core.mission import Block, MissionError
+from mavhelm.core.mission import Block
 from mavhelm.tasks.base import NavState, Task
 from mavhelm.tasks.holding import HoldingPattern
 from mavhelm.tasks.limit_altitude import LimitAltitude
@@ -16,6 +16,7 @@ from mavhelm.tasks.limit_box import LimitBox
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.steer_then_drive import SteerThenDriveXYPattern
 from mavhelm.tasks.variable_heading import VariableHeading
+from tests.support.task_rig import refusal
 
 # tblock (blocks in t.moos at line 60, entries on 61, 62, ...), nav_at, msg: conftest.py
 TBlock = Callable[..., Block]
@@ -29,12 +30,6 @@ def started(tblock: TBlock, kind: str, *pairs: tuple[str, str], at: float = 0.0)
     task.start(at)
     task.take_notifications()
     return task
-
-
-def refusal(tblock: TBlock, kind: str, *pairs: tuple[str, str]) -> str:
-    with pytest.raises(MissionError) as err:
-        build_task(tblock(kind, *pairs))
-    return str(err.value)
 
 
 def flags(task: Task, name: str) -> list[float | str]:

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mavhelm.core.mission import Block, MissionError
+from mavhelm.core.mission import Block
 from mavhelm.tasks.base import NavState, Task
 from mavhelm.tasks.geometry import (
     bearing,
@@ -34,6 +34,7 @@ from mavhelm.tasks.registry import build_task, task_class
 from mavhelm.tasks.survey import Survey
 from mavhelm.tasks.trackline import XTE_LIMIT, XTE_TI_LEADS, LineFollower, TrackLine
 from mavhelm.tasks.xypattern import XYPattern
+from tests.support.task_rig import refusal
 
 # tblock (blocks in t.moos at line 60, entries from line 61), nav_at: fixtures in conftest.py
 TBlock = Callable[..., Block]
@@ -212,12 +213,6 @@ def make(tblock: TBlock, kind: str, *pairs: tuple[str, str]) -> Task:
     task.start(0.0)
     task.take_notifications()
     return task
-
-
-def refusal(tblock: TBlock, kind: str, *pairs: tuple[str, str]) -> str:
-    with pytest.raises(MissionError) as err:
-        build_task(tblock(kind, *pairs))
-    return str(err.value)
 
 
 def test_the_four_are_registered_case_insensitively() -> None:

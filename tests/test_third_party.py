@@ -4,7 +4,6 @@ denying (with the reason, to the requester), timing out sessions and closing tra
 from __future__ import annotations
 
 import pytest
-from helm_rig import Rig, Spec, one, safety, values
 
 from mavhelm.core.mission import MissionError
 from mavhelm.core.thirdparty import (
@@ -13,6 +12,7 @@ from mavhelm.core.thirdparty import (
     ThirdPartyRequest,
     parse_request,
 )
+from tests.support.helm_rig import Rig, Spec, one, safety, values
 
 
 def test_a_request_is_built_and_read_back():

@@ -134,7 +134,7 @@ def test_an_empty_or_all_garbage_file_gives_nothing_but_the_count(tmp_path) -> N
 
 @pytest.mark.slow
 def test_a_tlog_recorded_from_the_real_sitl(real_sitl, tmp_path) -> None:
-    from ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, RealOperator
+    from tests.support.ardupilot import GCS_COMPONENT_ID, GCS_SYSTEM_ID, RealOperator
 
     sitl = real_sitl(model="rover", speedup=10,
                      params={"RNGFND1_TYPE": 100, "RNGFND1_ORIENT": 25})

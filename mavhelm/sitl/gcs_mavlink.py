@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import ardupilotmega as M
 
+from mavhelm.core.geodesy import lat_lon_e7
 from mavhelm.sitl import autopilot as ap
 from mavhelm.sitl.ftp import ftp_reply
 from mavhelm.sitl.links import Link
@@ -220,9 +221,10 @@ class GcsMavlink:
             return
         x = y = None
         if (msg.type_mask & ap.POS_IGNORE) != ap.POS_IGNORE:
-            if abs(msg.lat_int) > 900_000_000 or abs(msg.lon_int) > 1_800_000_000:
+            try:
+                x, y = self.sim.home.to_local(*lat_lon_e7(msg.lat_int, msg.lon_int))
+            except ValueError:
                 return
-            x, y = self.sim.home.to_local(msg.lat_int / 1e7, msg.lon_int / 1e7)
         a.set_position_target(type_mask=msg.type_mask, frame="ned", x=x, y=y, vx=msg.vx,
                               vy=msg.vy, yaw=msg.yaw, yaw_rate=msg.yaw_rate, now=now,
                               message="SET_POSITION_TARGET_GLOBAL_INT")
@@ -324,7 +326,10 @@ class GcsMavlink:
                        frame: int | None) -> tuple[int, list[Any]]:
         if frame is None:  # COMMAND_INT only
             return ap.RESULT_UNSUPPORTED, []
-        lat, lon = p[4] / 1e7, p[5] / 1e7
+        try:
+            lat, lon = lat_lon_e7(int(p[4]), int(p[5]))
+        except ValueError:
+            return ap.RESULT_DENIED, []
         if lat == 0 and lon == 0:
             return ap.RESULT_DENIED, []
         x, y = self.sim.home.to_local(lat, lon)

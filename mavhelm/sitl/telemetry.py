@@ -16,6 +16,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as M
 
+from mavhelm.core.clock import boot_ms
 from mavhelm.sitl import autopilot as ap
 from mavhelm.sitl.estimator import Estimator
 from mavhelm.sitl.flat_earth import Origin
@@ -74,7 +75,7 @@ class Telemetry:
 
     def boot_ms(self, now: float) -> int:
         """Milliseconds since boot, wrapped to uint32 like time_boot_ms."""
-        return int(max(0.0, now - self.boot) * 1000) & 0xFFFFFFFF
+        return boot_ms(now - self.boot)
 
     def latlon(self, x: float, y: float) -> tuple[int, int]:
         """A local position as MAVLink's degE7 integers."""

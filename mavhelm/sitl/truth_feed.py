@@ -46,6 +46,8 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.core.clock import boot_seconds
+from mavhelm.core.geodesy import lat_lon_e7
 from mavhelm.sitl.faults import Fault, Scenario
 from mavhelm.sitl.flat_earth import Origin
 from mavhelm.sitl.truth import Truth
@@ -91,7 +93,7 @@ def truth_from_simstate(msg: mavlink.MAVLink_simstate_message, t: float, origin:
     surge/sway are the body-frame velocity over ground, and ``z`` is 0 (a surface vehicle).
     The yaw rate is the body z gyro, which is the heading rate for a level hull.
     """
-    x, y = origin.to_local(msg.lat * 1e-7, msg.lng * 1e-7)
+    x, y = origin.to_local(*lat_lon_e7(msg.lat, msg.lng))
     heading = heading_of_yaw(msg.yaw)
     vx, vy = velocity
     h = math.radians(heading)
@@ -196,10 +198,10 @@ class TruthFeed:
             return None
         boot_ms = getattr(msg, "time_boot_ms", None)
         if isinstance(boot_ms, int):
-            self._stamp(boot_ms / 1000.0)
+            self._stamp(boot_seconds(boot_ms))
         if kind == "SYSTEM_TIME":
             if msg.time_unix_usec and self.boot_s is not None:
-                self.utc_minus_boot = msg.time_unix_usec / 1e6 - msg.time_boot_ms / 1000.0
+                self.utc_minus_boot = msg.time_unix_usec / 1e6 - boot_seconds(msg.time_boot_ms)
         elif kind == "SIM_STATE":
             if self.boot_s is not None:
                 self._velocity = (self.boot_s, msg.ve, msg.vn)
@@ -211,9 +213,13 @@ class TruthFeed:
         if self.boot_s is None:
             return None  # no stamp yet: the sample cannot be placed in time
         boot = self.boot_s
+        try:
+            lat, lon = lat_lon_e7(msg.lat, msg.lng)
+        except ValueError:
+            return None  # not a place on the earth: a corrupted sample
         if self.origin is None:
-            self.origin = Origin(msg.lat * 1e-7, msg.lng * 1e-7)
-        x, y = self.origin.to_local(msg.lat * 1e-7, msg.lng * 1e-7)
+            self.origin = Origin(lat, lon)
+        x, y = self.origin.to_local(lat, lon)
         self._track.append((boot, x, y))
         while self._track and boot - self._track[0][0] > self.window_s:
             self._track.popleft()

@@ -5,6 +5,7 @@ the helm on NAV_*: the navigator's whole real path, for the simulator tests of i
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,6 +23,7 @@ from mavhelm.sitl.serial_sensors import (
     PtySerialPort,
     RadioRanges,
 )
+from tests.support.mission import mission_text as standard_mission
 
 LAT, LON = 56.4120, -5.4760
 BEACONS = (Beacon("1", -60.0, -60.0, -1.0), Beacon("2", 160.0, -50.0, -1.0),
@@ -32,26 +34,21 @@ LBL_BEACONS = (Beacon("1", -150.0, -150.0, -20.0, 0.05), Beacon("2", 300.0, -150
                Beacon("3", 60.0, 300.0, -20.0, 0.15))
 """Seabed transponders, 20 m down, with their turn-around times (s)."""
 
-MISSION = """
-LatOrigin  = {lat}
-LongOrigin = {lon}
-ProcessConfig = iMAVLink
-{{
-    Connect = tcp:127.0.0.1:5760
-    OnlineModes = GUIDED
-    MaxTurnRate = 45
-{imavlink}}}
-{serial}
-ProcessConfig = pNav
-{{
-{nav}
-}}
-ProcessConfig = pHelm
-{{
-    AppTick   = 10
-    MAXRUDDER = 30
+DEAD_RECKONING = """
+    X = GPS @ 2, EKF @ 2
+    Y = GPS @ 2, EKF @ 2
+    Heading = HDG @ 1, INS @ 1
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
+    SENSOR_BODY_VEL    = DVL -> dvl @ 0,0,-0.3 ~ 0.02, 0.02
+    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
+"""
+"""The box patrol's pNav on GPS, compass, DVL and gyro (the EKF dead-reckons through a GPS
+outage): the simulator test's and the nav benchmark's."""
+
+BOX = """
     Task = XYPattern
-    {{
+    {
         Name     = Box
         Priority = 3
         Location = 0,0
@@ -60,26 +57,21 @@ ProcessConfig = pHelm
         Location = 0,100
         Repeat   = FOREVER
         Radius   = 8
-        Thrust   = {thrust:g}
+        Thrust   = %s
         TimeOut  = 3000
-    }}
-    Task = OverallTimeOut
-    {{
-        TimeOut    = 3000
-        FinishFlag = EndMission
-    }}
-    Task = EndMission
-    {{
-        StartFlag = EndMission
-    }}
-}}
+    }
 """
 
-def mission_text(serial: str, nav: str, *, thrust: float = 60.0, imavlink: str = "") -> str:
+
+def mission_text(serial: str, nav: str, *, thrust: float = 60.0,
+                 imavlink: Iterable[tuple[str, object]] = ()) -> str:
     """The box patrol mission (also the ArduPilot benchmark's) with these iSerial blocks,
-    pNav lines, thrust and extra iMAVLink lines."""
-    return MISSION.format(lat=LAT, lon=LON, serial=serial, nav=nav, thrust=thrust,
-                          imavlink=imavlink)
+    pNav lines, thrust and extra iMAVLink settings."""
+    return standard_mission(
+        BOX % f"{thrust:g}", origin=(LAT, LON), blocks=serial, nav=nav,
+        imavlink=[("Connect", "tcp:127.0.0.1:5760"), ("OnlineModes", "GUIDED"),
+                  ("MaxTurnRate", 45), *imavlink],
+        helm={"AppTick": 10, "MAXRUDDER": 30}, overall_timeout=3000)
 
 
 SERIAL = """

@@ -1,7 +1,7 @@
 """How a steering + throttle boat brakes under its autopilot: one script, two sides.
 
 ``run_braking(side, cases)`` plays the same ground-station script against the real ArduPilot
-Rover SITL (``RealBrakeSide``) or ``mavhelm sim`` (``SimBrakeSide``): arm, GUIDED, and for each
+Rover SITL (``sides.RealSide``) or ``mavhelm sim`` (``sides.SimSide``): arm, GUIDED, and for each
 case drive straight east at the case's speed with a refreshed SET_POSITION_TARGET_LOCAL_NED
 velocity target, then stop it one of two ways,
 
@@ -21,13 +21,14 @@ benchmarks/bench_braking.py.
 from __future__ import annotations
 
 import math
-import select
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as M
+
+from tests.support.sides import Side
 
 HOME = (56.4120, -5.4760, 0, 90)
 CALM = {"SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
@@ -37,7 +38,6 @@ ROVER_PARM = ("ATC_SPEED_P 0.1\nATC_STR_RAT_FF 0.75\nCRUISE_SPEED 5\nCRUISE_THRO
               "RC1_MAX 2000\nRC1_MIN 1000\nRC3_MAX 2000\nRC3_MIN 1000\nSERVO1_MIN 1000\n"
               "SERVO1_MAX 2000\nSERVO3_MAX 2000\nSERVO3_MIN 1000\nWP_RADIUS 3\nWP_SPEED 5\n")
 MOTORBOAT_PARM = "FRAME_CLASS 2\nSIM_TIDE_0.5\nSIM_WIND_SPD 3\nSIM_WIND_T 1\nSIM_WAVE_ENABLE 1\n"
-GCS = (255, 190)
 GUIDED, HOLD = 15, 4
 STREAM_HZ = 50            # autopilot hertz asked of EXTRA1 (ATTITUDE, SIMSTATE) and RC_CHANNELS
 TARGET_PERIOD_S = 0.1     # velocity target refresh while driving
@@ -47,14 +47,6 @@ SPEED_WINDOW_S = 0.3      # speed: a line fitted to SIMSTATE positions over this
 WALL_LIMIT_S = 120.0
 CASES: tuple[tuple[str, float], ...] = (
     ("timeout", 1.6), ("hold", 1.6), ("timeout", 4.0), ("hold", 4.0))
-
-
-class BrakeSide(Protocol):
-    conn: Any
-
-    def pump(self) -> list[Any]:
-        """Let a little time pass; return the messages that arrived."""
-        ...
 
 
 @dataclass
@@ -71,7 +63,7 @@ class Stop:
 class BrakeDriver:
     """Plays the script on one side on the autopilot's clock."""
 
-    def __init__(self, side: BrakeSide) -> None:
+    def __init__(self, side: Side) -> None:
         self.side = side
         self.t = 0.0
         self.mode: int | None = None
@@ -88,9 +80,9 @@ class BrakeDriver:
                                f"autopilot at {self.t:.1f} s")
         if self.t >= self._hb_due:
             self._hb_due = self.t + 1.0
-            self.side.conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0,
+            self.side.gcs.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0,
                                               M.MAV_STATE_ACTIVE)
-        for msg in self.side.pump():
+        for _, msg in self.side.pump():
             self._take(msg)
 
     def _take(self, msg: Any) -> None:
@@ -118,11 +110,11 @@ class BrakeDriver:
 
     def command(self, cmd: int, *params: float) -> None:
         p = list(params) + [0.0] * (7 - len(params))
-        self.side.conn.mav.command_long_send(1, 1, cmd, 0, *p)
+        self.side.gcs.mav.command_long_send(1, 1, cmd, 0, *p)
 
     def streams(self) -> None:
         for sid in (M.MAV_DATA_STREAM_EXTRA1, M.MAV_DATA_STREAM_RC_CHANNELS):
-            self.side.conn.mav.request_data_stream_send(1, 1, sid, STREAM_HZ, 1)
+            self.side.gcs.mav.request_data_stream_send(1, 1, sid, STREAM_HZ, 1)
 
     def hand_over(self, max_s: float = 120.0) -> None:
         """Arm, then GUIDED, retried each autopilot second as an operator would."""
@@ -139,7 +131,7 @@ class BrakeDriver:
 
     def velocity(self, east: float) -> None:
         """SET_POSITION_TARGET_LOCAL_NED with only a velocity (east, m/s)."""
-        self.side.conn.mav.set_position_target_local_ned_send(
+        self.side.gcs.mav.set_position_target_local_ned_send(
             0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0xDC7, 0, 0, 0, 0.0, east, 0, 0, 0, 0, 0, 0)
 
     def drive(self, speed: float, seconds: float) -> float:
@@ -161,7 +153,7 @@ class BrakeDriver:
         return hit()
 
 
-def run_braking(side: BrakeSide, cases: tuple[tuple[str, float], ...] = CASES) -> list[Stop]:
+def run_braking(side: Side, cases: tuple[tuple[str, float], ...] = CASES) -> list[Stop]:
     """The script: every case's drive and stop, in order, on one armed vehicle."""
     d = BrakeDriver(side)
     d.until(1.0)
@@ -287,44 +279,6 @@ def print_table(real: list[Stop] | None, sim: list[Stop]) -> None:
             print(f"{label(s):<22} {key:<24} {r:8.2f} {fs[key]:8.2f} {diff:>8}")
 
 
-# ---------------------------------------------------------------------------- the two sides
-class RealBrakeSide:
-    """The real SITL: the ground station on SERIAL0 (its clock starts then)."""
-
-    def __init__(self, sitl: Any) -> None:
-        from ardupilot import connect_tcp
-
-        self.sitl = sitl
-        self.conn = connect_tcp(sitl.ports.serial0, source_system=GCS[0],
-                                source_component=GCS[1])
-
-    def pump(self) -> list[Any]:
-        from ardupilot import read_available
-
-        select.select([self.conn.port], [], [], 0.005)
-        return read_available(self.conn)
-
-    def close(self) -> None:
-        self.conn.close()
-
-
-class SimBrakeSide:
-    """``mavhelm sim`` (tests/sitl_rig.Rig) stepped in lockstep, ``dt`` autopilot s a pump."""
-
-    def __init__(self, rig: Any, dt: float = 0.02) -> None:
-        self.rig = rig
-        self.dt = dt
-        self.client = rig.connect(0, *GCS)
-        self.conn = self.client.conn
-        self._seen = 0
-
-    def pump(self) -> list[Any]:
-        self.rig.step(self.dt)
-        new = self.client.msgs[self._seen:]
-        self._seen = len(self.client.msgs)
-        return new
-
-
 def write_stock_parms(folder: Path) -> Path:
     """rover.parm and motorboat.parm (their lines that matter here) written into folder."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -336,9 +290,8 @@ def write_stock_parms(folder: Path) -> Path:
 def sim_rig(params_dir: Any, *, fast_start: bool = True, **params: float) -> Any:
     """A Rig running ``--model motorboat --defaults rover.parm,motorboat.parm`` (from
     ``params_dir``), calm, at the real SITL's home and heading."""
-    from sitl_rig import Rig
-
     from mavhelm.sitl.flat_earth import Origin
+    from tests.support.sitl_rig import Rig
 
     files = [str(params_dir / "rover.parm"), str(params_dir / "motorboat.parm")]
     return Rig(model="motorboat", defaults=files, params={**CALM, **params},

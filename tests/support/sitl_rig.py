@@ -15,6 +15,7 @@ from __future__ import annotations
 import select
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -22,18 +23,23 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from mavhelm.core.clock import SimClock
 from mavhelm.sitl.lockstep import pending_bytes, stall_limit
 from mavhelm.sitl.simulator import Simulator
+from tests.support.ground_station import GroundStation
+from tests.support.waiting import wait_for
 
 M = mavlink
 
 
 @dataclass
-class Client:
+class Client(GroundStation):
+    """One pymavlink connection to the simulator (a ground station or a companion) and every
+    message it has received, commanding the autopilot (1/1) as ``GroundStation``."""
+
     conn: mavutil.mavfile
-    link: object
+    link: Any
     msgs: list = field(default_factory=list)
 
     @property
-    def mav(self):
+    def mav(self) -> Any:
         return self.conn.mav
 
     def of(self, kind: str) -> list:
@@ -78,10 +84,8 @@ class Rig:
         raise AssertionError("simulator did not accept")
 
     def _wait(self, done, sock) -> None:
-        deadline = time.monotonic() + self.wall_timeout
-        while not done():
-            assert time.monotonic() < deadline, "lockstep stalled"
-            select.select([sock], [], [], 0.001)
+        wait_for(done, self.wall_timeout, "the bytes sent to arrive (lockstep stalled)",
+                 pause=lambda: select.select([sock], [], [], 0.001))
 
     def deliver(self) -> None:
         """Make sure the simulator's socket holds everything the clients sent."""
@@ -120,8 +124,8 @@ class Rig:
 
 
 def command(c: Client, cmd: int, *params: float) -> None:
-    p = list(params) + [0.0] * (7 - len(params))
-    c.mav.command_long_send(1, 1, cmd, 0, *p)
+    """COMMAND_LONG from ``c`` to the autopilot (1/1)."""
+    c.command(cmd, *params)
 
 
 def arm_guided(r: Rig, c: Client) -> None:

@@ -5,8 +5,8 @@ every 10 ms by a daemon thread (``RealtimeSim``, which lets a test read the simu
 or as the real ``mavhelm sim`` command in a subprocess (``SimProcess``). Both listen on ephemeral
 loopback ports only, so they never collide with a ``mavhelm sim`` someone is running.
 
-Every wait here has a deadline and fails with a message that says what was awaited and what was
-seen instead; every process started here is killed on the way out.
+Every wait here is ``waiting.wait_for`` (a deadline, and a failure that says what it saw);
+every process started here is killed on the way out.
 """
 
 from __future__ import annotations
@@ -26,23 +26,10 @@ from pymavlink import mavutil
 
 from mavhelm.core.clock import WallClock
 from mavhelm.sitl.simulator import Simulator
+from tests.support.waiting import wait_for
 
 STEP = 0.01  # wall seconds between simulator steps (mavhelm sim's runner uses the same tick)
-REPO = Path(__file__).resolve().parent.parent
-
-
-def wait_until(pred: Callable[[], Any], timeout: float, what: str,
-               seen: Callable[[], Any] | None = None, period: float = 0.05) -> Any:
-    """Poll pred() until it is truthy (returning its value) or fail after timeout seconds."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = pred()
-        if value:
-            return value
-        if time.monotonic() >= deadline:
-            extra = f"; last seen: {seen()!r}" if seen is not None else ""
-            raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}{extra}")
-        time.sleep(period)
+REPO = Path(__file__).resolve().parents[2]
 
 
 class RealtimeSim:
@@ -93,7 +80,7 @@ class RealtimeSim:
             with self.lock:
                 return f"mode={self.sim.mode} armed={self.sim.armed}"
 
-        return wait_until(probe, timeout, what, seen)
+        return wait_for(probe, timeout, what, seen)
 
     def close(self) -> None:
         self._stop.set()
@@ -183,6 +170,20 @@ class SimProcess:
             self.close()
             raise
 
+    SENSOR_LINE = re.compile(r"mavhelm sim: (\w+) on (/dev/\S+) \(")
+
+    def sensor_paths(self, *names: str, timeout: float = 10.0) -> dict[str, str]:
+        """The pseudo-terminals ``--sensors`` printed, {sensor: path}, read until every one of
+        ``names`` is among them (fails after ``timeout`` with the output so far)."""
+        paths: dict[str, str] = {}
+        deadline = time.monotonic() + timeout
+        while not set(names) <= set(paths):
+            line = self.output.next_line(deadline - time.monotonic())
+            assert line is not None, self.output.text()
+            if m := self.SENSOR_LINE.match(line):
+                paths[m.group(1)] = m.group(2)
+        return paths
+
     def close(self) -> None:
         _stop_process(self.proc)
 
@@ -235,8 +236,8 @@ class MavproxyProcess:
                                      f"waiting for {pattern!r}; output:\n{self.output.tail()}")
             return None
 
-        return wait_until(find, timeout, f"MAVProxy to print {pattern!r}",
-                          lambda: "\n" + self.output.tail())
+        return wait_for(find, timeout, f"MAVProxy to print {pattern!r}",
+                        lambda: "\n" + self.output.tail())
 
     def close(self) -> None:
         if self.proc.poll() is None and self.proc.stdin is not None:

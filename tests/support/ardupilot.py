@@ -33,15 +33,18 @@ import socket
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import IO, NamedTuple
+from typing import IO, NamedTuple, Self
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from tests.support.ground_station import GroundStation
+from tests.support.processes import PREEXEC, ConsoleProcess
+from tests.support.waiting import wait_for
 
 ARDUPILOT_ENV = "MAVHELM_ARDUPILOT"
 SKIP_REASON = ("real ArduPilot SITL not configured: "
@@ -58,7 +61,7 @@ EXTRA_PARM = "extra.parm"
 
 GCS_SYSTEM_ID = 255               # ArduPilot takes RC override only from MAV_GCS_SYSID (255)
 GCS_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER    # 190
-ROVER_MODE_NUMBERS = {name: number for number, name in mavutil.mode_mapping_rover.items()}
+COMPANION_COMPONENT_ID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER    # 191, the companion's default
 
 MODEL_DEFAULTS: dict[str, tuple[str, ...]] = {
     "rover": ("rover.parm",),
@@ -159,14 +162,6 @@ def listening_ports(pid: int) -> set[int]:
                 if len(fields) > 9 and fields[3] == "0A" and fields[9] in inodes:
                     ports.add(int(fields[1].rsplit(":", 1)[1], 16))
     return ports
-
-
-def _set_parent_death_signal() -> None:  # pragma: no cover - runs in the child
-    """Ask Linux to SIGTERM the SITL if the test process dies without stopping it."""
-    with contextlib.suppress(Exception):
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
 
 
 class RealSitl:
@@ -289,7 +284,7 @@ class RealSitl:
         self.proc = subprocess.Popen(
             cmd, cwd=self.tmp_dir, stdin=subprocess.DEVNULL, stdout=self._log,
             stderr=subprocess.STDOUT,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
+            preexec_fn=PREEXEC)
         self.instance = instance
         self.ports = instance_ports(instance)
         deadline = self.started_at + self.ready_timeout_s
@@ -397,12 +392,14 @@ def read_available(conn: mavutil.mavfile) -> list:
     return messages
 
 
-class RealOperator:
+class RealOperator(GroundStation):
     """A ground station (system 255, component 190) on the SITL's SERIAL0.
 
     Call ``poll()`` often: it reads what arrived, updates the tracked state and sends the GCS
     heartbeat each wall second. Wall times are ``time.monotonic()``; autopilot times are the
     ``time_boot_ms`` of the autopilot's messages (its simulated clock, ``speedup`` × faster).
+    Besides the autopilot's own texts it keeps the companion's (system 1, component 191), which
+    ArduPilot routes to SERIAL0, in ``companion_texts``.
     """
 
     def __init__(self, port: int, *, host: str = "127.0.0.1", target_system: int = 1,
@@ -425,6 +422,7 @@ class RealOperator:
         self.first_heartbeat_boot_ms: int | None = None
         self.boot_ms: int | None = None           # latest time_boot_ms from the autopilot
         self.statustexts: list[tuple[float, str]] = []
+        self.companion_texts: list[tuple[float, str]] = []
         self.acks: list[tuple[float, int, int]] = []
         # changes of (mode, armed): wall, boot ms, mode, armed
         self.modes: list[tuple[float, int | None, str, bool]] = []
@@ -446,8 +444,7 @@ class RealOperator:
         now = time.monotonic()
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + self.heartbeat_s
-            self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
-                                         0, 0, mavlink.MAV_STATE_ACTIVE)
+            self.heartbeat()
         wait_readable(self.conn, min(timeout_s, max(0.0, self._next_heartbeat - now)))
         msgs = read_available(self.conn)
         now = time.monotonic()
@@ -461,6 +458,9 @@ class RealOperator:
             self.bad_data += 1
             return
         self.sources[(msg.get_srcSystem(), msg.get_srcComponent())] += 1
+        if (kind == "STATUSTEXT" and msg.get_srcSystem() == self.target_system
+                and msg.get_srcComponent() == COMPANION_COMPONENT_ID):
+            self.companion_texts.append((now, msg.text))
         if (msg.get_srcSystem() != self.target_system
                 or msg.get_srcComponent() != self.target_component):
             return
@@ -494,12 +494,12 @@ class RealOperator:
         """Poll until ``predicate()``; returns the wall seconds it took, raises TimeoutError
         (with the autopilot's last texts) after ``timeout_s``."""
         t0 = time.monotonic()
-        while not predicate():
-            if time.monotonic() - t0 > timeout_s:
-                raise TimeoutError(f"no {what} after {timeout_s:g} s wall (mode {self.mode}, "
-                                   f"armed {self.armed}); last texts: {self.texts()[-8:]}")
-            self.poll(0.02)
+        wait_for(predicate, timeout_s, what, self._seen, pause=lambda: self.poll(0.02),
+                 error=TimeoutError)
         return time.monotonic() - t0
+
+    def _seen(self) -> str:
+        return f"mode {self.mode}, armed {self.armed}; last texts: {self.texts()[-8:]}"
 
     def wait_text(self, fragment: str, timeout_s: float, since: float = 0.0) -> tuple[float, str]:
         """The first STATUSTEXT containing ``fragment`` received at or after wall time
@@ -518,24 +518,18 @@ class RealOperator:
     def last_ack(self, command: int) -> int | None:
         return next((result for _, cmd, result in reversed(self.acks) if cmd == command), None)
 
-    # -- sending -----------------------------------------------------------------------------
+    @property
+    def mav(self) -> mavlink.MAVLink:
+        return self.conn.mav
 
-    def command(self, command: int, *params: float) -> None:
-        values = list(params) + [0.0] * (7 - len(params))
-        self.conn.mav.command_long_send(self.target_system, self.target_component, command, 0,
-                                        *values)
+    def wait_first_heartbeat(self, stream_hz: int, timeout_s: float = 10.0) -> Self:
+        """Ask for every stream at ``stream_hz`` and wait for the autopilot's first HEARTBEAT
+        (how a test's ground station starts); returns itself."""
+        self.request_streams(stream_hz)
+        self.wait_until(lambda: self.heartbeats > 0, timeout_s, "the autopilot's first HEARTBEAT")
+        return self
 
-    def arm(self, arm: bool = True) -> None:
-        self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0)
-
-    def set_mode(self, name: str) -> None:
-        self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                     float(ROVER_MODE_NUMBERS[name.upper()]))
-
-    def request_streams(self, rate_hz: int) -> None:
-        """REQUEST_DATA_STREAM ALL at ``rate_hz`` (hertz of the autopilot's clock)."""
-        self.conn.mav.request_data_stream_send(self.target_system, self.target_component,
-                                               mavlink.MAV_DATA_STREAM_ALL, rate_hz, 1)
+    # -- handing over ------------------------------------------------------------------------
 
     def hand_over(self, mode: str = "GUIDED", timeout_s: float = 60.0,
                   retry_s: float = 1.0) -> float:
@@ -593,7 +587,7 @@ def truth_track(op: RealOperator, since_wall: float = 0.0,
             for boot, lat, lng, yaw in rows]
 
 
-class CompanionProcess:
+class CompanionProcess(ConsoleProcess):
     """``mavhelm run MISSION --connect tcp:127.0.0.1:PORT --clock autopilot`` in its own
     process (or the same through ``launcher``, a command standing in for ``python -m
     mavhelm.cli``); its console lines are collected, with the wall time each was read."""
@@ -603,47 +597,9 @@ class CompanionProcess:
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
         head = launcher or [sys.executable, "-m", "mavhelm.cli"]
-        self.cmd = head + ["run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
-                           "--clock", "autopilot", "--log-dir", str(self.log_dir)]
-        self.lines: list[tuple[float, str]] = []
-        self.started_wall = time.monotonic()
-        self.proc = subprocess.Popen(
-            self.cmd, cwd=self.log_dir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, bufsize=1,
-            preexec_fn=_set_parent_death_signal if sys.platform == "linux" else None)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    def running(self) -> bool:
-        return self.proc.poll() is None
-
-    def find(self, fragment: str, nth: int = 1) -> tuple[float, str] | None:
-        """The ``nth`` console line containing ``fragment``: (wall time read, line)."""
-        hits = [(t, line) for t, line in list(self.lines) if fragment in line]
-        return hits[nth - 1] if len(hits) >= nth else None
-
-    def find_all(self, fragment: str) -> list[str]:
-        return [line for _, line in list(self.lines) if fragment in line]
-
-    def output(self, last: int = 40) -> str:
-        return "\n".join(line for _, line in list(self.lines)[-last:])
-
-    def stop(self) -> int:
-        """SIGTERM (its own pid), as systemd would; SIGKILL after 10 s. Returns the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._reader.join(5.0)
-        return self.proc.returncode
+        super().__init__(head + ["run", str(mission), "--connect", f"tcp:127.0.0.1:{port}",
+                                 "--clock", "autopilot", "--log-dir", str(self.log_dir)],
+                         cwd=self.log_dir)
 
     def alog(self) -> list:
         from mavhelm.companion.alog import read_alog
@@ -651,3 +607,42 @@ class CompanionProcess:
         paths = sorted(self.log_dir.glob("*.alog"))
         assert len(paths) == 1, f"expected one .alog in {self.log_dir}, found {paths}"
         return read_alog(paths[0])
+
+
+# -- waiting on the operator while the companion runs ----------------------------------------------
+
+def wait_watching(op: RealOperator, comp: CompanionProcess | None, predicate: Callable[[], object],
+                  timeout_s: float, what: str) -> float:
+    """Poll the operator until ``predicate()``; fail at once if the companion exited, and with
+    its console on a time-out. Returns the wall seconds it took."""
+    def check() -> bool:
+        if comp is not None and not comp.running():
+            raise AssertionError(f"the companion exited (code {comp.proc.returncode}) while "
+                                 f"waiting for {what}:\n{comp.output()}")
+        return bool(predicate())
+    try:
+        return op.wait_until(check, timeout_s, what)
+    except TimeoutError as exc:
+        tail = comp.output() if comp is not None else ""
+        raise AssertionError(f"{exc}\ncompanion console:\n{tail}") from None
+
+
+def wait_line(op: RealOperator, comp: CompanionProcess, fragment: str, nth: int = 1,
+              timeout_s: float = 30.0) -> float:
+    """Wait for the companion's ``nth`` console line containing ``fragment``; the wall time it
+    was read."""
+    wait_watching(op, comp, lambda: comp.find(fragment, nth) is not None, timeout_s,
+                  f"companion line {fragment!r} #{nth}")
+    hit = comp.find(fragment, nth)
+    assert hit is not None
+    return hit[0]
+
+
+def wait_autopilot(op: RealOperator, comp: CompanionProcess | None, seconds: float) -> int:
+    """Let ``seconds`` of the autopilot's clock pass (its time_boot_ms on SERIAL0); returns the
+    boot ms reached."""
+    assert op.boot_ms is not None
+    until = op.boot_ms + int(seconds * 1000)
+    wait_watching(op, comp, lambda: op.boot_ms is not None and op.boot_ms >= until,
+                  5.0 + 3.0 * seconds, f"{seconds:g} autopilot s")
+    return op.boot_ms

@@ -9,7 +9,8 @@ tolerance; ``accepted_differences()`` reads the keys the simulator is allowed to
 Time is always the autopilot's (``time_boot_ms`` of its messages), so a SITL running at
 ``--speedup N`` and the simulator stepped in lockstep are compared on the same axis. The driver
 only waits for the autopilot clock; how that clock advances is the side's business:
-``RealSide`` polls sockets while the real binary runs, ``SimSide`` steps the simulator.
+``sides.RealSide`` polls sockets while the real binary runs, ``sides.SimSide`` steps the
+simulator.
 
 A plain helper module (not a test module), imported by tests/test_conformance.py.
 """
@@ -19,18 +20,17 @@ from __future__ import annotations
 import fnmatch
 import math
 import re
-import select
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as M
 
-DIFFERENCES_DOC = Path(__file__).resolve().parents[1] / "docs" / "sim-differences.md"
-GCS = (255, 190)
-COMPANION = (254, 191)
+from tests.support.sides import COMPANION, GCS, Side
+
+DIFFERENCES_DOC = Path(__file__).resolve().parents[2] / "docs" / "sim-differences.md"
 WALL_LIMIT_S = 120.0  # a side that stops advancing its clock fails the run
 
 # Parameters read by name: present ones are compared by value, absent ones must stay absent.
@@ -81,21 +81,6 @@ def _norm_text(text: str) -> str:
     text = re.sub(r"^[0-9a-f]{32}$", "<board id>", text)
     text = re.sub(r"free=\d+", "free=<n>", text)
     return text
-
-
-class Side(Protocol):
-    """Where the scenario runs: two pymavlink connections and a way to let time pass."""
-
-    gcs: Any
-    companion: Any
-
-    def pump(self) -> list[tuple[str, Any]]:
-        """Let a little time pass; return the new messages as ("gcs"|"companion", msg)."""
-        ...
-
-    def wall_per_autopilot_s(self) -> float:
-        """Roughly how many wall seconds one autopilot second takes (for heartbeats)."""
-        ...
 
 
 @dataclass
@@ -600,59 +585,3 @@ def accepted_differences(path: Path = DIFFERENCES_DOC) -> dict[str, str]:
 
 def unaccepted(diffs: list[Difference], accepted: dict[str, str]) -> list[Difference]:
     return [d for d in diffs if not any(fnmatch.fnmatchcase(d.key, p) for p in accepted)]
-
-
-# ---------------------------------------------------------------------- the two sides
-class RealSide:
-    """The real SITL: the GCS on SERIAL0 first (its clock starts then), the companion on
-    SERIAL1 once it opens."""
-
-    def __init__(self, sitl: Any) -> None:
-        from ardupilot import connect_tcp
-
-        self.sitl = sitl
-        self.gcs = connect_tcp(sitl.ports.serial0, source_system=GCS[0],
-                               source_component=GCS[1])
-        sitl.wait_listening(sitl.ports.serial1)
-        self.companion = connect_tcp(sitl.ports.serial1, source_system=COMPANION[0],
-                                     source_component=COMPANION[1])
-
-    def pump(self) -> list[tuple[str, Any]]:
-        from ardupilot import read_available
-
-        select.select([self.gcs.port, self.companion.port], [], [], 0.005)
-        return ([("gcs", m) for m in read_available(self.gcs)]
-                + [("companion", m) for m in read_available(self.companion)])
-
-    def wall_per_autopilot_s(self) -> float:
-        return 1.0 / self.sitl.speedup
-
-    def close(self) -> None:
-        self.gcs.close()
-        self.companion.close()
-
-
-class SimSide:
-    """``mavhelm sim``'s Simulator in lockstep with a simulated clock (tests/sitl_rig.Rig). Built
-    with ``wait_for_client=True`` it behaves as the real SITL: the GCS on the first port starts
-    its clock and opens the second port, where the companion then connects."""
-
-    def __init__(self, rig: Any, dt: float = 0.05) -> None:
-        self.rig = rig
-        self.dt = dt
-        self._gcs = rig.connect(0, *GCS)
-        self._comp = rig.connect(1, *COMPANION)
-        self.gcs = self._gcs.conn
-        self.companion = self._comp.conn
-        self._seen = [0, 0]
-
-    def pump(self) -> list[tuple[str, Any]]:
-        self.rig.step(self.dt)
-        out: list[tuple[str, Any]] = []
-        for i, (who, c) in enumerate((("gcs", self._gcs), ("companion", self._comp))):
-            out.extend((who, m) for m in c.msgs[self._seen[i]:])
-            self._seen[i] = len(c.msgs)
-        return out
-
-    def wall_per_autopilot_s(self) -> float:
-        return 0.0
