@@ -300,3 +300,15 @@ def test_mavhelm_convert_says_why_a_mission_would_be_refused(tmp_path):
     assert out.stdout.rstrip().endswith(f"mavhelm would refuse this mission: {path}:16: "
                                         "USETOPDOWN is not supported by mavhelm: mavhelm has no "
                                         "top-down calibration engine")
+
+
+@pytest.mark.slow
+def test_the_demo_says_what_it_does_not_use(tmp_path):
+    from mavhelm.demo import run_demo
+
+    lines: list[str] = []
+    result = run_demo(MOOS / "mission.moos", tmp_path, echo=lines.append)
+    assert result.ended
+    notes = mission_notes(load_mission(MOOS / "mission.moos"))
+    assert [line for line in lines if line.startswith("  not used: ")] == [
+        f"  not used: {note}" for note in notes]

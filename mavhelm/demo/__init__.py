@@ -11,6 +11,7 @@ import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
 
+from mavhelm.companion.moos import mission_notes
 from mavhelm.core.mission import load_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.demo.report import Summary, format_summary, plot_run, summarize, write_track_csv
@@ -48,6 +49,8 @@ def run_demo(mission_path: str | Path = DEFAULT_MISSION, out_root: str | Path = 
         suffix += 1
     out_dir.mkdir(parents=True)
     echo(f"mission {mission_path}; simulated {model}; logs in {out_dir}")
+    for note in mission_notes(mission):
+        echo(f"  not used: {note}")
     with SimulatedRun.start(mission, model=model,
                             defaults=defaults, fast_start=fast_start,
                             scenario=scenario, seed=seed,
