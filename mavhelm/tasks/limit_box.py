@@ -51,7 +51,8 @@ class LimitTask(Task):
               "a safety task normally watches the whole mission)", attr="timeout"),
         Param("IgnoreTime", Number(0.0, 3600.0), 0.0, "s",
               "no events in the first seconds after the task goes active (a start outside "
-              "the limit, a sensor settling)", attr="ignore_time"),
+              "the limit, a sensor settling; the original's default is 10 s)",
+              attr="ignore_time"),
     )
     ignore_time: float
 

@@ -45,10 +45,11 @@ class Survey(RouteTask):
         Param("Rotation", Number(-360.0, 360.0), 0.0, "deg",
               "direction of the legs (of leg 0), clockwise from north"),
         Param("Lead", LEAD, DEFAULT_LEAD, "m",
-              "the carrot's lead along each line beyond the vehicle's projection on it"),
+              "the carrot's lead along each line beyond the vehicle's projection on it (the "
+              "original's default is 1 m)"),
         Param("LegTimeOut", Seconds(), None, "s",
               "a leg flown longer than this is abandoned for the next one (default NEVER: "
-              "no limit)",
+              "no limit, as a long leg is not a fault; the original's default is 100 s)",
               attr="leg_timeout"),
     )
     center: tuple[float, float, float | None]

@@ -320,9 +320,11 @@ class TrackLine(RouteTask):
         Param("P2", Point(), unit="m", doc="end of the line (x,y), the goal",
               aliases=(Alias("Location"),)),
         Param("Lead", LEAD, DEFAULT_LEAD, "m",
-              "the carrot's lead along the line beyond the vehicle's projection on it"),
+              "the carrot's lead along the line beyond the vehicle's projection on it (the "
+              "original's default is 1 m, which turns a boat sharply onto the line)"),
         Param("Radius", RADIUS, 3.0, "m",
-              "capture radius at P2: the task completes closer than this (or once past P2)"),
+              "capture radius at P2: the task completes closer than this (or once past P2; "
+              "the original's default is 0)"),
     )
     p1: tuple[float, float, float | None] | None
     p2: tuple[float, float, float | None]

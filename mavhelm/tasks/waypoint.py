@@ -17,7 +17,8 @@ class GoToWayPoint(SteeringTask):
     summary = "steers straight at a point; completes inside Radius"
     params = (
         Param("Location", Point(), unit="m", doc="the waypoint, x east and y north of the origin"),
-        Param("Radius", RADIUS, 5.0, "m", "the task completes closer than this"),
+        Param("Radius", RADIUS, 5.0, "m", "the task completes closer than this (the "
+              "original's default is 0, which a vehicle never reaches)"),
     )
     location: tuple[float, float, float | None]
     radius: float

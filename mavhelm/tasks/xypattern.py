@@ -94,7 +94,7 @@ class XYPattern(RouteTask):
         Param("Location", Point(), [], "m", "a waypoint x,y; one line each, flown in order "
               "(at least one)", repeat=True, attr="locations"),
         Param("Radius", RADIUS, 5.0, "m", "a waypoint is reached closer than this (or once "
-              "passed along its line)"),
+              "passed along its line; the original's default is 0)"),
         Param("Repeat", Passes(), 0, "passes", "passes after the first; FOREVER patrols until "
               "the task's TimeOut"),
     )
