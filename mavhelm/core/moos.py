@@ -87,6 +87,13 @@ FOREIGN: Final = (
     Foreign("pShare", f"{NO_MOOSDB}; a ground station talks MAVLink to the autopilot"),
     Foreign("iRemote", "mavhelm remote is the console: it talks MAVLink"),
     Foreign("uMS", "mavhelm remote shows the helm's state; the .alog holds every variable"),
+    Foreign("uXMS", "mavhelm remote shows the helm's state; the .alog holds every variable"),
+    Foreign("uProcessWatch", "mavhelm is one process: its console says when anything stops"),
+    Foreign("pMarineViewer", "a ground station shows the vehicle; mavhelm remote the helm"),
+    Foreign("pNodeReporter", "the autopilot reports the vehicle to the ground station"),
+    Foreign("pMarinePID", "the autopilot turns the helm's demands into actuation"),
+    Foreign("pHelmIvP", "mavhelm's helm is the MOOS pHelm: its Task blocks, not IvP "
+            "behaviours"),
     Foreign("uPoke", "post flags from the ground station (iMAVLink RemoteFlag)"),
     Foreign("pScheduler", "the mission's tasks and their flags do the scheduling"),
     Foreign("iGPS", "the GPS arrives over MAVLink (GPS_RAW_INT) or from an iSerial_ block"),
