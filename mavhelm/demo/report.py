@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from mavhelm.core.bus import Message
 from mavhelm.core.mission import Mission
@@ -101,7 +102,8 @@ def waypoints(mission: Mission) -> list[tuple[str, float, float]]:
 
 def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Mission,
              path: str | Path, title: str = "") -> None:
-    """Track coloured by the task that held the rudder, waypoints, and heading over time."""
+    """Track coloured by the task that held the rudder, waypoints, heading over time and, for
+    a vehicle with a depth (``NAV_DEPTH`` heard), depth over time."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -119,8 +121,13 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
             current = name
         return current
 
-    fig, (ax, ax_h) = plt.subplots(1, 2, figsize=(13, 6),
-                                   gridspec_kw={"width_ratios": [1.2, 1]})
+    depth = [(m.time, m.double) for m in messages if m.name == "NAV_DEPTH" and m.is_double]
+    widths = [1.2, 1, 1] if depth else [1.2, 1]
+    fig, axes = plt.subplots(1, len(widths), figsize=(6.5 * len(widths), 6),
+                             gridspec_kw={"width_ratios": widths})
+    ax, ax_h = axes[0], axes[1]
+    if depth:
+        plot_depth(axes[2], depth, messages)
     xs = [s.x for s in track]
     ys = [s.y for s in track]
     ax.plot(xs, ys, color="0.8", lw=1, zorder=1)
@@ -155,6 +162,21 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_depth(ax: Any, depth: Sequence[tuple[float, float]],
+               messages: Sequence[Message]) -> None:
+    """NAV_DEPTH over time (down is down), with the tasks' starts marked."""
+    ax.plot([t for t, _ in depth], [d for _, d in depth], color="navy", lw=1.5, label="NAV_DEPTH")
+    for m in messages:
+        if m.name == "TASK_STARTED":
+            ax.axvline(m.time, color="0.6", ls="--", lw=0.8)
+            ax.annotate(m.string, (m.time, 0), rotation=90, fontsize=7, va="top")
+    ax.invert_yaxis()
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("depth (m)")
+    ax.set_title("Depth; dashed: a task starts")
+    ax.grid(True, alpha=0.3)
 
 
 def write_track_csv(track: Sequence[Truth], path: str | Path) -> None:
