@@ -4,7 +4,8 @@
 flies a copy shrunk to fit in about a minute of wall time at ×10 — the same tasks in the same
 order, with smaller distances and depths — plus one task the example does not have: ``Plunge``
 (priority 2, above the survey's ConstantDepth) asks for a depth below the LimitDepth
-(priority 1), so that the limit is seen to fire and to win the elevator (its EventFlag here is ``TooDeep``, not EndMission, so the mission goes on).
+(priority 1), so that the limit is seen to fire and to win the elevator (its EventFlag here
+is ``TooDeep``, not EndMission, so the mission goes on).
 
 Asserted from the companion's .alog (autopilot seconds): every task starts and ends in order;
 once settled the depth is within 1 m of each target; LimitDepth fires when the vehicle is
@@ -91,6 +92,19 @@ def wait(op: SubOperator, comp: CompanionProcess, fragment: str, timeout_s: floa
         raise AssertionError(f"{exc}\ncompanion console:\n{comp.output(60)}") from None
 
 
+def nav_track(log: list[Message]) -> list[Truth]:
+    """pNav's pose as a track, one sample per NAV_X (the latest NAV_Y and NAV_HEADING)."""
+    latest: dict[str, float] = {}
+    track = []
+    for m in log:
+        if m.name in ("NAV_X", "NAV_Y", "NAV_HEADING") and m.is_double:
+            latest[m.name] = m.double
+            if m.name == "NAV_X" and len(latest) == 3:
+                track.append(Truth(m.time, latest["NAV_X"], latest["NAV_Y"],
+                                   latest["NAV_HEADING"]))
+    return track
+
+
 def depths_between(log: list[Message], t0: float, t1: float) -> list[float]:
     return [m.double for m in named(log, "NAV_DEPTH") if t0 <= m.time <= t1]
 
@@ -128,11 +142,10 @@ def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
     times = {m.string: m.time for m in named(log, "TASK_STARTED")}
     end_times = {m.string.split(":")[0]: m.time for m in named(log, "TASK_ENDED")}
     events = named(log, "TooDeep")
-    track = [Truth(m.time, x.double, y.double, 0.0) for m, x, y in
-             zip(named(log, "NAV_HEADING"), named(log, "NAV_X"), named(log, "NAV_Y"),
-                 strict=False)]
-    plot_run(track, log, load_mission(mission), tmp_path / "companion" / "track.png",
-             "Figure 1 (AUV) on ArduSub SITL")
+    t0 = log[0].time
+    shifted = [Message(m.name, m.value, m.time - t0, m.source) for m in log]
+    plot_run(nav_track(shifted), shifted, load_mission(mission),
+             tmp_path / "companion" / "track.png", "Figure 1 (AUV) on ArduSub SITL")
     print(f"\n[ardusub] started {started}\n[ardusub] ended {ended}\n[ardusub] plot "
           f"{tmp_path / 'companion' / 'track.png'}")
     print(f"[ardusub] task times (autopilot s): "
