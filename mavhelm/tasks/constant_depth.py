@@ -8,6 +8,8 @@ default depth, 0.2 m, is kept.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from mavhelm.core.params import Number, Param
 from mavhelm.tasks.base import NavState, Votes
 from mavhelm.tasks.depth import DepthTask
@@ -19,7 +21,7 @@ DEPTH_M = Number(0.0, 11_000.0)
 class ConstantDepth(DepthTask):
     keyword = "ConstantDepth"
     summary = "holds a depth (votes ELEVATOR only); ends on its TimeOut"
-    params = (
+    params: ClassVar[tuple[Param, ...]] = (
         Param("Depth", DEPTH_M, 0.2, "m", "depth to hold, metres below the surface"),
     )
     depth: float
