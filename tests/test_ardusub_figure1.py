@@ -169,4 +169,9 @@ def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
     assert events and times["Plunge"] <= events[0].time <= end_times["Plunge"]
     assert max(plunge) < LIMIT_M + 1.0, "LimitDepth kept the vehicle near its limit"
     assert [m.string for m in named(log, "HELM_HANDBACK_DONE")] == ["SURFACE"]
+    # the pressure sensor's depth agrees with ArduSub's own while the survey holds its depth
+    baro = [m.double for m in named(log, "BARO_DEPTH")
+            if end_times["Survey"] - 10.0 <= m.time <= end_times["Survey"]]
+    print(f"[ardusub] BARO_DEPTH over the survey's last 10 s: {min(baro):.2f}-{max(baro):.2f} m")
+    assert baro and all(abs(d - DIVE_M) <= 1.0 for d in baro), baro
     assert (tmp_path / "companion" / "track.png").stat().st_size > 0

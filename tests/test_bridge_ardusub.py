@@ -150,3 +150,15 @@ def test_handback_surface_on_ardusub_and_refused_on_rover() -> None:
     boat.bridge.send([Message("HELM_HANDBACK", "SURFACE", now, "pHelm")], now)
     errors = [m.value for m in boat.bus.fetch("test") if m.name == "HELM_HANDBACK_ERROR"]
     assert errors and "not a mode of this vehicle" in str(errors[0])
+
+
+def test_depth_from_the_pressure_sensor_once_its_parameters_are_known() -> None:
+    rig = Rig()
+    rig.tick(rig.heartbeat(SUB, 19))
+    pressure = mavlink.MAVLink_scaled_pressure_message(1000, 1013.25 + 98.0665 * 1.024 * 5,
+                                                       0.0, 1500)
+    assert "BARO_DEPTH" not in rig.tick(pressure), "no surface pressure known yet"
+    rig.tick(mavlink.MAVLink_param_value_message(b"BARO1_GND_PRESS", 101325.0, 9, 1, 0),
+             mavlink.MAVLink_param_value_message(b"BARO_SPEC_GRAV", 1.024, 9, 1, 1))
+    posted = rig.tick(pressure)
+    assert posted["BARO_DEPTH"] == [pytest.approx(5.0, abs=0.01)]

@@ -109,6 +109,11 @@ BODY_VELOCITY_AND_YAW_RATE = (
 """SET_POSITION_TARGET_LOCAL_NED: velocity and yaw rate only (ArduSub's guided_set_velocity)."""
 
 
+SUB_PRESSURE_PARAMS = ("BARO1_GND_PRESS", "BARO_SPEC_GRAV")
+"""ArduSub's depth sensor (barometer 1): its pressure at the surface (Pa) and the specific
+gravity of the water it is in (1.0 fresh, 1.024 sea)."""
+
+
 @dataclass
 class SubGuided(Actuation):
     """ArduSub in GUIDED: SET_POSITION_TARGET_LOCAL_NED in MAV_FRAME_BODY_NED with a velocity
@@ -143,6 +148,11 @@ class SubGuided(Actuation):
     max_speed: float
     max_depth_rate: float
     name = "sub_guided"
+
+    def wanted_params(self) -> tuple[str, ...]:
+        """Not needed to drive, but to read depth from the pressure sensor (the bridge's
+        SCALED_PRESSURE handler): its surface pressure and the water's specific gravity."""
+        return SUB_PRESSURE_PARAMS
 
     def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
               boot_ms: int, elevator: float = 0.0) -> dict[str, float]:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
-from mavhelm.companion.actuation import SubGuided
+from mavhelm.companion.actuation import SUB_PRESSURE_PARAMS, SubGuided
 from mavhelm.companion.bridge.config import make_actuation
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import modes_for
@@ -184,6 +184,25 @@ def on_vfr_hud(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
         post_depth(post, "VFR", float(msg.alt))
 
 
+GRAVITY = 9.80665
+WATER_DENSITY = 1000.0
+"""kg/m³ of fresh water: times BARO_SPEC_GRAV, the water ArduSub is told it is in."""
+
+
+def on_scaled_pressure(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
+    """ArduSub's depth sensor (barometer 1) as ``BARO_DEPTH``: the pressure above its surface
+    reading over ρ g, as ArduSub computes its own depth, once both parameters are known."""
+    params = bridge.state.view.params
+    if bridge.state.vehicle_type != mavlink.MAV_TYPE_SUBMARINE \
+            or not all(name in params for name in SUB_PRESSURE_PARAMS):
+        return
+    surface_pa, gravity = (params[name] for name in SUB_PRESSURE_PARAMS)
+    if not (math.isfinite(msg.press_abs) and surface_pa > 0 and gravity > 0):
+        raise ValueError(f"impossible pressure {msg.press_abs!r} hPa")
+    depth = (msg.press_abs * 100.0 - surface_pa) / (WATER_DENSITY * gravity * GRAVITY)
+    post_depth(post, "BARO", -depth)
+
+
 def on_distance_sensor(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     reading = distance_reading(msg)
     if reading is not None:
@@ -252,6 +271,7 @@ FROM_AUTOPILOT: dict[str, Handler] = {
     "GLOBAL_POSITION_INT": on_global_position_int,
     "DISTANCE_SENSOR": on_distance_sensor,
     "VFR_HUD": on_vfr_hud,
+    "SCALED_PRESSURE": on_scaled_pressure,
     "WHEEL_DISTANCE": on_wheel_distance,
     "SIMSTATE": on_simstate,
     "EKF_STATUS_REPORT": on_ekf_status_report,
