@@ -10,7 +10,8 @@ is ``TooDeep``, not EndMission, so the mission goes on).
 Asserted from the companion's .alog (autopilot seconds): every task starts and ends in order;
 once settled the depth is within 1 m of each target; LimitDepth fires when the vehicle is
 pushed below its limit and brings it back; EndMission hands the vehicle to ArduSub's SURFACE
-mode. The run's plot (track, heading, depth) is written beside the .alog.
+mode. The run's plot (track, heading, depth) is written beside the .alog. A second test flies
+the example unchanged: in the SITL's 50 m of water its altitude limit ends it on the way down.
 
 Needs MAVHELM_ARDUSUB (see tests/ardusub.py); skips without it.
 """
@@ -33,6 +34,7 @@ pytestmark = pytest.mark.slow
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "figure1_auv.moos"
 SPEEDUP = 10
+AS_WRITTEN_SPEEDUP = 20
 DIVE_M = 8.0
 LIMIT_M = 12.0
 
@@ -109,24 +111,24 @@ def depths_between(log: list[Message], t0: float, t1: float) -> list[float]:
     return [m.double for m in named(log, "NAV_DEPTH") if t0 <= m.time <= t1]
 
 
-def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
+def fly(tmp_path: Path, mission: Path, speedup: float, mission_wall_s: float) -> list[Message]:
+    """Start ArduSub, the companion on ``mission``, hand over in GUIDED, wait for the mission's
+    end and the SURFACE hand-back; the companion's .alog."""
     if ardusub_binary() is None:
         pytest.skip(SKIP_REASON)
-    mission = tmp_path / "figure1_auv_test.moos"
-    mission.write_text(test_mission())
-    # the stock rangefinder stops at 30 m; the SITL's seabed is about 50 m down here
-    sitl = start_sub(tmp_path / "ardusub", speedup=SPEEDUP, params={"RNGFND1_MAX": 60})
+    # the stock rangefinder stops at 30 m; the SITL's water is 50 m deep (a flat bottom)
+    sitl = start_sub(tmp_path / "ardusub", speedup=speedup, params={"RNGFND1_MAX": 60})
     op = None
     try:
-        op = SubOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP)
+        op = SubOperator(sitl.ports.serial0, heartbeat_s=1.0 / speedup)
         op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
         sitl.wait_listening(sitl.ports.serial1)
         comp = CompanionProcess(mission, sitl.ports.serial1, tmp_path / "companion")
         try:
             wait(op, comp, "helm offline: autopilot disarmed", 30.0)
-            op.hand_over("GUIDED", timeout_s=60.0, retry_s=1.0 / SPEEDUP)
+            op.hand_over("GUIDED", timeout_s=60.0, retry_s=1.0 / speedup)
             wait(op, comp, "helm ONLINE", 10.0)
-            wait(op, comp, "MISSION ENDED", 120.0)
+            wait(op, comp, "MISSION ENDED", mission_wall_s)
             wait(op, comp, "handed back to the autopilot in SURFACE", 10.0)
             assert op.mode == "SURFACE"
         finally:
@@ -135,7 +137,13 @@ def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
         if op is not None:
             op.close()
         sitl.stop()
-    log = comp.alog()
+    return comp.alog()
+
+
+def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
+    mission = tmp_path / "figure1_auv_test.moos"
+    mission.write_text(test_mission())
+    log = fly(tmp_path, mission, SPEEDUP, 120.0)
 
     started = [m.string for m in named(log, "TASK_STARTED")]
     ended = dict(m.string.split(":") for m in named(log, "TASK_ENDED"))
@@ -175,3 +183,21 @@ def test_figure1_auv_on_ardusub(tmp_path: Path) -> None:
     print(f"[ardusub] BARO_DEPTH over the survey's last 10 s: {min(baro):.2f}-{max(baro):.2f} m")
     assert baro and all(abs(d - DIVE_M) <= 1.0 for d in baro), baro
     assert (tmp_path / "companion" / "track.png").stat().st_size > 0
+
+
+def test_figure1_auv_as_written_meets_the_sitl_seabed(tmp_path: Path) -> None:
+    """The example unchanged: the SITL's water is 50 m deep, so diving for 50 m the vehicle
+    comes within 7 m of the bottom, LimitAltitude fires EndMission and ArduSub surfaces it."""
+    log = fly(tmp_path, EXAMPLE, AS_WRITTEN_SPEEDUP, 120.0)
+    started = [m.string for m in named(log, "TASK_STARTED")]
+    ended = dict(m.string.split(":") for m in named(log, "TASK_ENDED"))
+    altitude_events = [m for m in named(log, "TASK_EVENT") if m.string.startswith("Altitude")]
+    deepest = max(m.double for m in named(log, "NAV_DEPTH"))
+    print(f"\n[ardusub] as written: started {started}; ended {ended}; deepest {deepest:.1f} m; "
+          f"{altitude_events[:1]}")
+    assert [n for n in started if n not in ("DepthLimit", "AltitudeLimit", "OneHour")] == [
+        "InitialDelay", "Traverse", "Dive", "Abort"]
+    assert ended["Traverse"] == "complete" and "Dive" not in ended
+    assert altitude_events, "LimitAltitude fired"
+    assert 40.0 < deepest < 50.0
+    assert [m.string for m in named(log, "MISSION_ENDED")] == ["Abort"]
