@@ -11,17 +11,18 @@ from __future__ import annotations
 
 import math
 
+from mavhelm.core.mission import Block
 from mavhelm.core.names import NAV_DEPTH, NAV_PITCH
 from mavhelm.tasks.base import NavState, Task
-from mavhelm.tasks.pid import DepthByPitch
+from mavhelm.tasks.pid import DepthByPitch, HelmGains
 
 
 class DepthTask(Task):
     reversing = False
     """A reverse dive flips the controller (see :class:`~mavhelm.tasks.pid.DepthByPitch`)."""
 
-    def __init__(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
-        super().__init__(*args, **kwargs)
+    def __init__(self, block: Block, gains: HelmGains | None = None) -> None:
+        super().__init__(block, gains)
         self.depth_pid: DepthByPitch = self.gains.depth_pid(reversing=self.reversing)
 
     def needs(self) -> set[str]:
