@@ -133,3 +133,23 @@ def test_dive_task_modes(tblock: TBlock) -> None:
     assert chuck.step(nav(2.0, 2.5, 5.0), 2.0)["ELEVATOR"] == -5  # type: ignore[index]
     chuck.step(nav(3.0, 2.5, -1.0), 3.0)
     assert chuck.end_cause == "complete"
+
+
+def test_the_helm_posts_the_depth_controllers_elevator_and_limit_depth_outranks_it() -> None:
+    from helm_rig import Rig, Spec, safety
+
+    spec = Spec()
+    tasks = [spec.task("ConstantDepth", ("Name", "Hold"), ("Depth", "20"), ("Priority", "3"),
+                       ("TimeOut", "NEVER")),
+             spec.task("LimitDepth", ("Name", "Limit"), ("MaximumDepth", "30")),
+             *safety(spec)]
+    rig = Rig(tasks, spec, ("PITCH_PID_KP", "2"), ("MAXELEVATOR", "25"))
+    rig.tick(HELM_ONLINE=1.0)
+
+    def elevator(depth: float) -> float:
+        posts = rig.tick(NAV_DEPTH=depth, NAV_PITCH=0.0)
+        return next(m.double for m in posts if m.name == "DESIRED_ELEVATOR")
+
+    assert elevator(10.0) > 0, "too shallow: dive"
+    assert elevator(25.0) < 0, "too deep for the task: rise"
+    assert elevator(31.0) == -25.0, "beyond the limit: LimitDepth's full rise wins"
