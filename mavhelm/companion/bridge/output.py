@@ -23,9 +23,10 @@ if TYPE_CHECKING:
 
 NAMED_VALUES: dict[str, str] = {
     "NAV_X": "NAV_X", "NAV_Y": "NAV_Y", "NAV_HEADING": "NAV_HDG", "NAV_SPEED": "NAV_SPEED",
-    "DESIRED_RUDDER": "DES_RUDDER", "DESIRED_THRUST": "DES_THRUST",
+    "DESIRED_RUDDER": "DES_RUDDER", "DESIRED_THRUST": "DES_THRUST", "NAV_DEPTH": "NAV_DEPTH",
 }
-"""Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters)."""
+"""Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters). NAV_DEPTH goes only
+where pNav has one (an underwater vehicle)."""
 
 STATUSTEXT_MAX = 200
 """Longest line sent to the ground station (four chunks)."""
