@@ -10,6 +10,8 @@ BIN     = $(VENV)/bin
 # (the variable may also be given by the caller; .ci/run sets it the same way).
 MAVHELM_ARDUPILOT ?= $(wildcard $(CURDIR)/../shared/ardupilot/ardurover)
 export MAVHELM_ARDUPILOT
+MAVHELM_ARDUSUB ?= $(wildcard $(CURDIR)/../shared/ardupilot/ardusub)
+export MAVHELM_ARDUSUB
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)

@@ -1,4 +1,4 @@
-"""How the helm's RUDDER and THRUST reach ArduPilot: one class per actuation profile.
+"""How the helm's RUDDER, THRUST and ELEVATOR reach ArduPilot: one class per actuation profile.
 
 Shaped like ArduPilot's own modes: a small base with yes/no questions (``refusal``: why the
 helm may not drive now) and the actions (``drive``, ``release``), one subclass per profile.
@@ -6,6 +6,8 @@ helm may not drive now) and the actions (``drive``, ``release``), one subclass p
 - ``guided``: SET_ATTITUDE_TARGET with body yaw rate + thrust (type_mask 0x03) in GUIDED,
   which Rover turns into a turn rate and a speed of thrust × WP_SPEED. No release is needed:
   ArduPilot stops by itself 3 s after the last target, and leaving GUIDED ends it at once.
+- ``guided`` on ArduSub (HEARTBEAT type SUBMARINE; the bridge picks this profile when it sees
+  one): ``SubGuided``, below.
 - ``rc_override``: RC_CHANNELS_OVERRIDE on the steering and throttle channels (RCMAP_ROLL,
   RCMAP_THROTTLE, scaled by their RCn_MIN/TRIM/MAX), for vehicles run in MANUAL. ArduPilot
   obeys it only from the system id in MAV_GCS_SYSID, so the companion must speak with that id;
@@ -70,9 +72,10 @@ class Actuation:
         return None
 
     def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
-              boot_ms: int) -> dict[str, float]:
-        """Send one tick's command (rudder in degrees, thrust in percent, both already
-        checked finite and in range); return what was sent, for the bus (AP_CMD_*)."""
+              boot_ms: int, elevator: float = 0.0) -> dict[str, float]:
+        """Send one tick's command (rudder and elevator in degrees, thrust in percent, all
+        already checked finite and in range); return what was sent, for the bus (AP_CMD_*).
+        A surface vehicle's profile ignores the elevator."""
         raise NotImplementedError
 
     def release(self, mav: mavlink.MAVLink) -> None:
@@ -88,7 +91,7 @@ class Guided(Actuation):
     name = "guided"
 
     def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
-              boot_ms: int) -> dict[str, float]:
+              boot_ms: int, elevator: float = 0.0) -> dict[str, float]:
         yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.max_rudder,
                                                     self.max_turn_rate))
         fraction = thrust / 100.0
@@ -96,6 +99,73 @@ class Guided(Actuation):
                                      ATTITUDE_RATE_AND_THRUST, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0,
                                      yaw_rate, fraction)
         return {"AP_CMD_YAW_RATE": yaw_rate, "AP_CMD_THRUST": fraction}
+
+
+BODY_VELOCITY_AND_YAW_RATE = (
+    mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
+    | mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE
+    | mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+    | mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE)
+"""SET_POSITION_TARGET_LOCAL_NED: velocity and yaw rate only (ArduSub's guided_set_velocity)."""
+
+
+SUB_PRESSURE_PARAMS = ("BARO1_GND_PRESS", "BARO_SPEC_GRAV")
+"""ArduSub's depth sensor (barometer 1): its pressure at the surface (Pa) and the specific
+gravity of the water it is in (1.0 fresh, 1.024 sea)."""
+
+
+@dataclass
+class SubGuided(Actuation):
+    """ArduSub in GUIDED: SET_POSITION_TARGET_LOCAL_NED in MAV_FRAME_BODY_NED with a velocity
+    (forward, 0 across, down) and a yaw rate; position, acceleration and yaw ignored.
+
+    Why this message: ArduSub's GCS_MAVLINK_Sub::handle_message takes a velocity-only target
+    with a yaw rate to ``guided_set_velocity`` (mode_guided.cpp), which holds that velocity in
+    three axes with its own position controller and turns at the rate: the helm's three
+    actuators each have an input. The alternatives each miss one: SET_ATTITUDE_TARGET in
+    GUIDED gives attitude and a climb rate but no forward thrust; SET_POSITION_TARGET_GLOBAL_INT
+    takes positions (the helm steers, it does not pick points); MANUAL_CONTROL in ALT_HOLD is
+    obeyed only from the ground station's system id (MAV_GCS_SYSID) and counts as the pilot's
+    input for ArduSub's pilot-input failsafe, so a companion using it would hide a lost operator.
+    ArduSub stops on its own (velocity 0, depth held) 3 s after the last target
+    (GUIDED_VEL_TIMEOUT_MS), and leaving GUIDED ends it at once.
+
+    The vectored frame has no elevator: the helm's elevator (the depth-by-pitch controller's
+    output, positive dives) becomes a vertical speed, full elevator (MAXELEVATOR) being
+    ``max_depth_rate`` down; thrust becomes forward speed, full thrust being ``max_speed``;
+    rudder becomes a turn rate as on Rover. ArduSub holds its pitch level itself, so the
+    pitch loop's input stays near zero and the cascade acts on depth as a proportional
+    vertical-speed demand. Measured on the ArduSub SITL (vectored, ×10): 1 m/s ahead, 0.5 m/s
+    down and 10°/s together turned, dived and advanced as asked, and with the velocity
+    stopped it held its depth within 5 cm.
+    """
+
+    target_system: int
+    target_component: int
+    max_rudder: float
+    max_turn_rate: float
+    max_elevator: float
+    max_speed: float
+    max_depth_rate: float
+    name = "sub_guided"
+
+    def wanted_params(self) -> tuple[str, ...]:
+        """Not needed to drive, but to read depth from the pressure sensor (the bridge's
+        SCALED_PRESSURE handler): its surface pressure and the water's specific gravity."""
+        return SUB_PRESSURE_PARAMS
+
+    def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
+              boot_ms: int, elevator: float = 0.0) -> dict[str, float]:
+        yaw_rate = math.radians(rudder_to_turn_rate(rudder, self.max_rudder,
+                                                    self.max_turn_rate))
+        forward = max(-1.0, min(1.0, thrust / 100.0)) * self.max_speed
+        down = (max(-1.0, min(1.0, elevator / self.max_elevator)) * self.max_depth_rate
+                if self.max_elevator > 0 else 0.0)
+        mav.set_position_target_local_ned_send(
+            boot_ms, self.target_system, self.target_component, mavlink.MAV_FRAME_BODY_NED,
+            BODY_VELOCITY_AND_YAW_RATE, 0.0, 0.0, 0.0, forward, 0.0, down, 0.0, 0.0, 0.0,
+            0.0, yaw_rate)
+        return {"AP_CMD_YAW_RATE": yaw_rate, "AP_CMD_VX": forward, "AP_CMD_VZ": down}
 
 
 DEFAULT_STEER_CHANNEL = 1
@@ -187,7 +257,7 @@ class RcOverride(Actuation):
         return int(round(max(lo, min(hi, value))))
 
     def drive(self, mav: mavlink.MAVLink, view: AutopilotView, rudder: float, thrust: float,
-              boot_ms: int) -> dict[str, float]:
+              boot_ms: int, elevator: float = 0.0) -> dict[str, float]:
         params = view.params
         channels = self.channels(params)
         assert channels is not None

@@ -17,11 +17,13 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS, engage_clash
-from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
+from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, BridgeConfig
 from mavhelm.companion.link import AutopilotLink
+from mavhelm.companion.mode_request import modes_for
 from mavhelm.core.geodesy import Origin, lat_lon_e7
 
-VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover"}
+VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover",
+                 mavlink.MAV_TYPE_SUBMARINE: "sub"}
 
 
 @dataclass
@@ -71,7 +73,7 @@ def checklist(seen: Observed, config: BridgeConfig, origin: Origin | None,
                                      f"component {config.target_component}: check "
                                      "TargetSystem/TargetComponent and the port's protocol "
                                      "(SERIALn_PROTOCOL = 2)")]
-    mode = ROVER_MODES.get(hb.custom_mode, f"mode {hb.custom_mode}")
+    mode = modes_for(hb.type).get(hb.custom_mode, f"mode {hb.custom_mode}")
     armed = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
     kind = VEHICLE_TYPES.get(hb.type, f"MAV_TYPE {hb.type}")
     lines.append(Line("ok" if hb.type in VEHICLE_TYPES else "WARN",

@@ -109,7 +109,8 @@ class Plan:
         navigator = Navigator.from_mission(bus, mission)
         helm = Helm.from_mission(bus, mission)
         instruments = instruments_from_mission(bus, mission, origin)
-        link = BridgeConfig.from_block(mission.process("iMAVLink"), helm.gains.max_rudder)
+        link = BridgeConfig.from_block(mission.process("iMAVLink"), helm.gains.max_rudder,
+                                       helm.gains.max_elevator)
         if connect is not None:
             try:
                 transport_for(connect, link.baud)

@@ -21,6 +21,25 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 ROVER_MODES: dict[int, str] = dict(mavutil.mode_mapping_rover)
 """Rover's custom_mode number → mode name."""
 ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
+SUB_MODES: dict[int, str] = dict(mavutil.mode_mapping_sub)
+"""ArduSub's custom_mode number → mode name (GUIDED 4, ALT_HOLD 2, SURFACE 9, MANUAL 19)."""
+SUB_MODE_NUMBERS: dict[str, int] = {name: number for number, name in SUB_MODES.items()}
+
+VEHICLE_MODES: dict[int, dict[int, str]] = {mavlink.MAV_TYPE_SUBMARINE: SUB_MODES}
+"""HEARTBEAT type → that firmware's mode table; every other type is read as Rover (boats
+report MAV_TYPE_SURFACE_BOAT, rovers MAV_TYPE_GROUND_ROVER)."""
+ALL_MODE_NAMES: tuple[str, ...] = tuple(dict.fromkeys([*ROVER_MODE_NUMBERS, *SUB_MODE_NUMBERS]))
+"""Every mode name a mission may write (OnlineModes), whichever vehicle it runs on."""
+
+
+def modes_for(mav_type: int | None) -> dict[int, str]:
+    """The mode table of the firmware that sent a HEARTBEAT of this type."""
+    return VEHICLE_MODES.get(mav_type, ROVER_MODES) if mav_type is not None else ROVER_MODES
+
+
+def mode_numbers_for(mav_type: int | None) -> dict[str, int]:
+    """Mode name → custom_mode number for this HEARTBEAT type."""
+    return {name: number for number, name in modes_for(mav_type).items()}
 
 
 class Step(enum.Enum):
@@ -48,14 +67,17 @@ class ModeRequest:
     confirmed: bool = False
     failed: bool = False
     retry_refused: bool = False
+    numbers: dict[str, int] = field(default_factory=lambda: ROVER_MODE_NUMBERS)
+    """The vehicle's mode table (``mode_numbers_for`` its HEARTBEAT type); Rover's by default."""
     number: int = field(init=False)
 
     def __post_init__(self) -> None:
-        if self.mode not in ROVER_MODE_NUMBERS:
-            raise ValueError(f"unknown Rover mode {self.mode!r}")
+        if self.mode not in self.numbers:
+            raise ValueError(f"{self.mode!r} is not a mode of this vehicle (its modes: "
+                             f"{', '.join(self.numbers)})")
         if self.tries < 1 or not (math.isfinite(self.retry_s) and self.retry_s > 0):
             raise ValueError("a mode request needs at least one try and a finite retry_s > 0")
-        self.number = ROVER_MODE_NUMBERS[self.mode]
+        self.number = self.numbers[self.mode]
 
     def step(self, now: float) -> Step:
         """What to do at ``now``: send (counted as a try), wait, or the outcome."""

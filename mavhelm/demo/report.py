@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from mavhelm.core.bus import Message
 from mavhelm.core.mission import Mission
@@ -101,7 +102,8 @@ def waypoints(mission: Mission) -> list[tuple[str, float, float]]:
 
 def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Mission,
              path: str | Path, title: str = "") -> None:
-    """Track coloured by the task that held the rudder, waypoints, and heading over time."""
+    """Track coloured by the task that held the rudder, waypoints, heading over time and, for
+    a vehicle with a depth (``NAV_DEPTH`` heard), depth over time."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -111,23 +113,40 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     names = list(dict.fromkeys(name for _, name in owners))
     colours = {name: plt.cm.tab10(i % 10) for i, name in enumerate(names)}
 
-    def owner_at(t: float) -> str:
-        current = "none"
-        for when, name in owners:
-            if when > t:
-                break
-            current = name
-        return current
+    depth = [(m.time, m.double) for m in messages if m.name == "NAV_DEPTH" and m.is_double]
+    widths = [1.2, 1, 1] if depth else [1.2, 1]
+    fig, axes = plt.subplots(1, len(widths), figsize=(6.5 * len(widths), 6),
+                             gridspec_kw={"width_ratios": widths})
+    ax, ax_h = axes[0], axes[1]
+    if depth:
+        plot_depth(axes[2], depth, messages)
+    plot_track(ax, track, owners, colours, mission, title)
+    plot_heading(ax_h, track, owners, colours)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
-    fig, (ax, ax_h) = plt.subplots(1, 2, figsize=(13, 6),
-                                   gridspec_kw={"width_ratios": [1.2, 1]})
+
+def owner_at(owners: Sequence[tuple[float, str]], t: float) -> str:
+    """Who held the rudder at ``t``."""
+    current = "none"
+    for when, name in owners:
+        if when > t:
+            break
+        current = name
+    return current
+
+
+def plot_track(ax: Any, track: Sequence[Truth], owners: Sequence[tuple[float, str]],
+               colours: dict[str, Any], mission: Mission, title: str) -> None:
+    """The track coloured by the task that held the rudder, and the mission's waypoints."""
     xs = [s.x for s in track]
     ys = [s.y for s in track]
     ax.plot(xs, ys, color="0.8", lw=1, zorder=1)
-    for name in names:
+    for name in colours:
         if name == "none":
             continue
-        held = [owner_at(s.t) == name for s in track]
+        held = [owner_at(owners, s.t) == name for s in track]
         sx = [s.x if h else math.nan for s, h in zip(track, held, strict=True)]
         sy = [s.y if h else math.nan for s, h in zip(track, held, strict=True)]
         ax.plot(sx, sy, color=colours[name], lw=2.5, label=f"rudder: {name}", zorder=2)
@@ -143,18 +162,35 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title or "Track (ground truth)")
-    ax_h.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
+
+
+def plot_heading(ax: Any, track: Sequence[Truth], owners: Sequence[tuple[float, str]],
+                 colours: dict[str, Any]) -> None:
+    """Heading over time, with the moments the rudder changes hands."""
+    ax.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
     for when, name in owners:
-        ax_h.axvline(when, color=colours.get(name, "k"), ls="--", lw=0.8)
-        ax_h.annotate(name, (when, 365), rotation=90, fontsize=7, va="top")
-    ax_h.set_ylim(0, 370)
-    ax_h.set_xlabel("time (s)")
-    ax_h.set_ylabel("heading (deg)")
-    ax_h.set_title("Heading; dashed: rudder changes hands")
-    ax_h.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        ax.axvline(when, color=colours.get(name, "k"), ls="--", lw=0.8)
+        ax.annotate(name, (when, 365), rotation=90, fontsize=7, va="top")
+    ax.set_ylim(0, 370)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("heading (deg)")
+    ax.set_title("Heading; dashed: rudder changes hands")
+    ax.grid(True, alpha=0.3)
+
+
+def plot_depth(ax: Any, depth: Sequence[tuple[float, float]],
+               messages: Sequence[Message]) -> None:
+    """NAV_DEPTH over time (down is down), with the tasks' starts marked."""
+    ax.plot([t for t, _ in depth], [d for _, d in depth], color="navy", lw=1.5, label="NAV_DEPTH")
+    for m in messages:
+        if m.name == "TASK_STARTED":
+            ax.axvline(m.time, color="0.6", ls="--", lw=0.8)
+            ax.annotate(m.string, (m.time, 0), rotation=90, fontsize=7, va="top")
+    ax.invert_yaxis()
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("depth (m)")
+    ax.set_title("Depth; dashed: a task starts")
+    ax.grid(True, alpha=0.3)
 
 
 def write_track_csv(track: Sequence[Truth], path: str | Path) -> None:

@@ -1,10 +1,11 @@
 """EndMission: priority 0, holds every actuator at its end value and locks out all other tasks.
 
 Commanding zero thrust for ever leaves a boat drifting (0.1 m/s in 3 m/s of wind, measured on
-real ArduPilot). ``HandBack = HOLD`` (or LOITER, RTL, SMART_RTL) asks, as the mission ends, for
-the autopilot to take the vehicle in that mode: the task posts ``HELM_HANDBACK`` and the
-MAVLink bridge switches the mode, confirms it from the HEARTBEAT, and reports a refusal. With
-the mode changed the helm is offline, as after any hand-over to the autopilot.
+real ArduPilot). ``HandBack = HOLD`` (or LOITER, RTL, SMART_RTL; SURFACE on ArduSub) asks, as
+the mission ends, for the autopilot to take the vehicle in that mode: the task posts
+``HELM_HANDBACK`` and the MAVLink bridge switches the mode, confirms it from the HEARTBEAT,
+and reports a refusal. With the mode changed the helm is offline, as after any hand-over
+to the autopilot.
 """
 
 from __future__ import annotations
@@ -28,10 +29,12 @@ class EndMission(Task):
         Param("EndRudder", RUDDER_DEGREES, 0.0, "deg", "rudder held after the mission"),
         Param("EndThrust", THRUST, 0.0, "%", "thrust held after the mission"),
         Param("EndElevator", RUDDER_DEGREES, 0.0, "deg", "elevator held after the mission"),
-        Param("HandBack", Choice(("NONE", "HOLD", "LOITER", "RTL", "SMART_RTL")), "NONE",
+        Param("HandBack", Choice(("NONE", "HOLD", "LOITER", "RTL", "SMART_RTL", "SURFACE")),
+              "NONE",
               attr="hand_back",
               doc="at the end, hand the vehicle to the autopilot in this mode (confirmed from "
-                  "its HEARTBEAT; a refusal is reported and the end values are held)"),
+                  "its HEARTBEAT; a refusal is reported and the end values are held); SURFACE "
+                  "is ArduSub's"),
     )
     end_rudder: float
     end_thrust: float

@@ -165,3 +165,54 @@ class HelmGains:
             self.max_rudder,
             angular=True,
         )
+
+    def depth_pid(self, *, reversing: bool = False) -> DepthByPitch:
+        """A fresh depth controller (spec 1.4.2): depth error in metres, elevator in degrees."""
+        return DepthByPitch(
+            ScalarPID(self.z_to_pitch_kp, self.z_to_pitch_kd, self.z_to_pitch_ki,
+                      self.z_to_pitch_integral_limit, self.max_pitch),
+            ScalarPID(self.pitch_kp, self.pitch_kd, self.pitch_ki,
+                      self.pitch_integral_limit, self.max_elevator),
+            reversing=reversing,
+        )
+
+
+class DepthByPitch:
+    """Depth through pitch (spec 1.4.2, Figure 3): an outer PID turns the error in Z into a
+    desired pitch (limited by MAXPITCH), an inner PID turns the pitch error into elevator
+    (limited by MAXELEVATOR).
+
+    Signs as the original's CPitchZPID: Z is up, so a depth error (desired − current, positive
+    when too shallow) is a negative Z error; positive pitch is nose up; positive elevator dives
+    (it pitches the nose down). ``reversing`` (a reverse dive, driven astern) flips both the
+    Z error and the elevator, since the control surfaces act the other way round.
+    """
+
+    def __init__(self, z_pid: ScalarPID, pitch_pid: ScalarPID, *, reversing: bool = False
+                 ) -> None:
+        self.z_pid = z_pid
+        self.pitch_pid = pitch_pid
+        self.reversing = reversing
+        self.desired_pitch = 0.0
+        """Degrees, nose up: the outer loop's output (what the original posts DESIRED_PITCH)."""
+
+    def reset(self) -> None:
+        self.z_pid.reset()
+        self.pitch_pid.reset()
+        self.desired_pitch = 0.0
+
+    def run(self, depth_error: float, depth_time: float, pitch: float, pitch_time: float
+            ) -> float:
+        """Elevator (degrees, positive dives) for ``depth_error`` (m, desired − current depth)
+        seen at ``depth_time`` and the vehicle's ``pitch`` (degrees, nose up) at
+        ``pitch_time``."""
+        z_error = -depth_error
+        if self.reversing:
+            z_error = -z_error
+        self.desired_pitch = self.z_pid.run(z_error, depth_time)
+        out = self.pitch_pid.run(self.desired_pitch - pitch, pitch_time)
+        return out if self.reversing else -out
+
+    def describe(self) -> str:
+        """Both loops' internals, for LOGPID."""
+        return f"z:{self.z_pid.describe()};pitch:{self.pitch_pid.describe()}"

@@ -5,11 +5,15 @@ from __future__ import annotations
 from mavhelm.core.mission import Block
 from mavhelm.tasks.actuate import SetActuator
 from mavhelm.tasks.base import Task
+from mavhelm.tasks.constant_depth import ConstantDepth
+from mavhelm.tasks.dive import DiveTask
 from mavhelm.tasks.end_mission import EndMission
+from mavhelm.tasks.goto_depth import GoToDepth
 from mavhelm.tasks.heading import ConstantHeading
 from mavhelm.tasks.holding import HoldingPattern
 from mavhelm.tasks.limit_altitude import LimitAltitude
 from mavhelm.tasks.limit_box import LimitBox
+from mavhelm.tasks.limit_depth import LimitDepth
 from mavhelm.tasks.orbit import Orbit
 from mavhelm.tasks.overall_timeout import OverallTimeOut
 from mavhelm.tasks.pid import HelmGains
@@ -20,6 +24,7 @@ from mavhelm.tasks.trackline import TrackLine
 from mavhelm.tasks.variable_heading import VariableHeading
 from mavhelm.tasks.waypoint import GoToWayPoint
 from mavhelm.tasks.xypattern import XYPattern
+from mavhelm.tasks.zpattern import ZPattern
 
 TASK_TYPES: dict[str, type[Task]] = {
     "gotowaypoint": GoToWayPoint,
@@ -38,6 +43,11 @@ TASK_TYPES: dict[str, type[Task]] = {
     "holdingpattern": HoldingPattern,
     "steerthendrivexypattern": SteerThenDriveXYPattern,
     "variableheading": VariableHeading,
+    "constantdepth": ConstantDepth,
+    "gotodepth": GoToDepth,
+    "zpattern": ZPattern,
+    "limitdepth": LimitDepth,
+    "divetask": DiveTask,
 }
 
 

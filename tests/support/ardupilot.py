@@ -406,6 +406,8 @@ class RealOperator(GroundStation):
                  target_component: int = 1, connect_timeout_s: float = 10.0,
                  heartbeat_s: float = 1.0) -> None:
         self.heartbeat_s = heartbeat_s
+        self.mode_names: dict[int, str] = dict(mavutil.mode_mapping_rover)
+        """custom_mode → name: Rover's; an ArduSub operator sets mavutil.mode_mapping_sub."""
         """Wall seconds between this GCS's heartbeats: 1/speedup keeps the 1 Hz of the
         autopilot's time a real ground station gives a SITL running in real time."""
         self.conn = connect_tcp(port, source_system=GCS_SYSTEM_ID,
@@ -475,7 +477,7 @@ class RealOperator(GroundStation):
             if self.first_heartbeat_wall is None:
                 self.first_heartbeat_wall = now
                 self.first_heartbeat_boot_ms = self.boot_ms
-            mode = mavutil.mode_mapping_rover.get(msg.custom_mode, str(msg.custom_mode))
+            mode = self.mode_names.get(msg.custom_mode, str(msg.custom_mode))
             armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             if (mode, armed) != (self.mode, self.armed):
                 self.modes.append((now, self.boot_ms, mode, armed))

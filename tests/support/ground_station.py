@@ -12,8 +12,6 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-ROVER_MODE_NUMBERS = {name: number for number, name in mavutil.mode_mapping_rover.items()}
-
 
 class GroundStation:
     """Commands to the autopilot at ``target_system``/``target_component`` over ``self.mav``
@@ -21,6 +19,8 @@ class GroundStation:
 
     target_system: int = 1
     target_component: int = 1
+    mode_names: dict[int, str] = dict(mavutil.mode_mapping_rover)
+    """custom_mode → name of the vehicle spoken to (Rover's unless a rig says otherwise)."""
 
     @property
     def mav(self) -> Any:
@@ -36,9 +36,10 @@ class GroundStation:
         self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0)
 
     def set_mode(self, name: str) -> None:
-        """DO_SET_MODE to the Rover mode ``name`` (GUIDED, HOLD, MANUAL...)."""
+        """DO_SET_MODE to the mode ``name`` (GUIDED, HOLD, MANUAL...) of ``mode_names``."""
+        numbers = {v: k for k, v in self.mode_names.items()}
         self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                     float(ROVER_MODE_NUMBERS[name.upper()]))
+                     float(numbers[name.upper()]))
 
     def request_streams(self, rate_hz: int) -> None:
         """REQUEST_DATA_STREAM ALL at ``rate_hz`` (hertz of the autopilot's clock)."""

@@ -19,13 +19,18 @@ into turn rate and speed = thrust × WP_SPEED.
 What the autopilot's telemetry becomes (local frame of the mission's origin: X east, Y north):
 
 ====================  ================================================================
-HEARTBEAT             ``AP_MODE`` (Rover mode name), ``AP_ARMED`` 1/0
+HEARTBEAT             ``AP_MODE`` (the mode's name in the table of the HEARTBEAT's type:
+                      ArduSub's for a submarine, else Rover's), ``AP_ARMED`` 1/0
 GPS_RAW_INT           ``GPS_FIX``; with a 3-D fix ``GPS_X``, ``GPS_Y`` (m), ``GPS_SPEED``
                       (m/s), ``GPS_HEADING`` (deg, course over ground)
 ATTITUDE              ``INS_YAW`` (rad, yaw = −heading), ``INS_HEADING`` (deg),
                       ``INS_PITCH``, ``INS_ROLL`` (rad), ``INS_YAW_VEL`` (rad/s)
 GLOBAL_POSITION_INT   ``AP_X``, ``AP_Y`` (m), ``AP_SPEED`` (m/s), ``AP_HEADING`` (deg),
                       ``AP_YAW`` (rad): the autopilot's EKF, while it has a position
+on ArduSub: GLOBAL_   ``AP_DEPTH`` (m, down) and ``AP_Z`` (m, up; the surface is Z = 0, tide 0,
+POSITION_INT,         spec 2.3.1) from relative_alt; ``VFR_DEPTH``/``VFR_Z`` from VFR_HUD's alt;
+VFR_HUD,              ``BARO_DEPTH``/``BARO_Z`` from barometer 1's pressure, its surface pressure
+SCALED_PRESSURE       (BARO1_GND_PRESS) and the water's specific gravity (BARO_SPEC_GRAV)
 DISTANCE_SENSOR       pointing down (orientation 25, PITCH_270): ``AP_ALTITUDE`` (m above
                       the bottom, or the ground); any other way: ``AP_DISTANCE_<n>`` (m),
                       ``n`` the MAV_SENSOR_ORIENTATION number, as in ``RNGFNDx_ORIENT``

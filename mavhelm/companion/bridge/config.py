@@ -18,9 +18,10 @@ from mavhelm.companion.actuation import (
     Actuation,
     Guided,
     RcOverride,
+    SubGuided,
 )
 from mavhelm.companion.link import transport_for
-from mavhelm.companion.mode_request import ROVER_MODE_NUMBERS
+from mavhelm.companion.mode_request import ALL_MODE_NAMES
 from mavhelm.companion.servos import Servo, ServoSpec
 from mavhelm.core.mission import Block, Entry, MissionError
 from mavhelm.core.moos import APP_PARAMS
@@ -91,12 +92,13 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("TargetSystem", MAVLINK_ID, 1, doc="the autopilot's system id", attr="target_system"),
     Param("TargetComponent", MAVLINK_ID, 1, doc="the autopilot's component id",
           attr="target_component"),
-    Param("OnlineModes", ChoiceList(Choice(tuple(ROVER_MODE_NUMBERS))), ("GUIDED",),
+    Param("OnlineModes", ChoiceList(Choice(ALL_MODE_NAMES)), ("GUIDED",),
           doc="the helm drives only while the autopilot is armed in one of these",
           attr="online_modes"),
     Param("Actuation", Choice(("guided", "rc_override")), "guided",
-          doc="guided: SET_ATTITUDE_TARGET in GUIDED; rc_override: RC_CHANNELS_OVERRIDE in "
-              "MANUAL, engaged by an RC switch (see docs/actuation.md)"),
+          doc="guided: targets in GUIDED (Rover: SET_ATTITUDE_TARGET; ArduSub: body velocity "
+              "and yaw rate); rc_override: RC_CHANNELS_OVERRIDE in MANUAL, engaged by an RC "
+              "switch (Rover; see docs/actuation.md)"),
     Param("EngageChannel", RC_CHANNEL, None,
           doc="rc_override: the RC channel whose switch hands the vehicle to the helm "
               "(required with rc_override; not a steering or throttle channel)",
@@ -122,6 +124,12 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
               "(-100..100) becomes DO_SET_SERVO with PWM min..max"),
     Param("MaxTurnRate", Number(0.0, 360.0, lo_open=True), 45.0, "deg/s",
           "turn rate commanded at full rudder (MAXRUDDER)", attr="max_turn_rate"),
+    Param("MaxSpeed", Number(0.0, 20.0, lo_open=True), 1.0, "m/s",
+          "ArduSub: forward speed asked at full thrust (Rover uses its WP_SPEED)",
+          attr="max_speed"),
+    Param("MaxDepthRate", Number(0.0, 5.0, lo_open=True), 0.5, "m/s",
+          "ArduSub: vertical speed asked at full elevator (ArduSub limits it to its "
+          "PILOT_SPEED_UP/DN)", attr="max_depth_rate"),
     Param("LinkTimeOut", Number(1.0, 60.0), 3.0, "s",
           "no autopilot HEARTBEAT for this long takes the helm offline", attr="link_timeout"),
     Param("NamedValueRate", Number(0.0, 10.0), 1.0, "Hz",
@@ -162,11 +170,14 @@ class BridgeConfig:
     link_timeout: float
     named_value_rate: float
     stream_rates: list[tuple[str, float]]
+    max_speed: float
+    max_depth_rate: float
     max_rudder: float
+    max_elevator: float
     streams: dict[str, float]
 
     def __init__(self, max_rudder: float = 20.0, streams: dict[str, float] | None = None,
-                 **settings: Any) -> None:
+                 max_elevator: float = 30.0, **settings: Any) -> None:
         values = schema_defaults(IMAVLINK_SCHEMA)
         unknown = sorted(set(settings) - set(values))
         if unknown:
@@ -175,6 +186,7 @@ class BridgeConfig:
         for name, value in values.items():
             setattr(self, name, value)
         self.max_rudder = max_rudder
+        self.max_elevator = max_elevator
         self.streams = dict(DEFAULT_STREAMS if streams is None else streams)
         self.streams.update(dict(self.stream_rates))
 
@@ -199,9 +211,11 @@ class BridgeConfig:
         return isinstance(other, BridgeConfig) and vars(self) == vars(other)
 
     @classmethod
-    def from_block(cls, block: Block | None, max_rudder: float = 20.0) -> BridgeConfig:
+    def from_block(cls, block: Block | None, max_rudder: float = 20.0,
+                   max_elevator: float = 30.0) -> BridgeConfig:
         block = block or Block("ProcessConfig", "iMAVLink", "", 0)
-        cfg = cls(max_rudder=max_rudder, **IMAVLINK_SCHEMA.read(block))
+        cfg = cls(max_rudder=max_rudder, max_elevator=max_elevator,
+                  **IMAVLINK_SCHEMA.read(block))
         if cfg.actuation == "rc_override":
             if cfg.engage_channel is None:
                 raise block.error("Actuation = rc_override needs EngageChannel: the RC switch "
@@ -250,8 +264,13 @@ def check_servos(cfg: BridgeConfig, block: Block) -> None:
         seen[servo.name] = servo
 
 
-def make_actuation(config: BridgeConfig) -> Actuation:
-    """The profile the iMAVLink block asks for."""
+def make_actuation(config: BridgeConfig, vehicle_type: int | None = None) -> Actuation:
+    """The profile the iMAVLink block asks for, for the vehicle whose HEARTBEAT type is
+    ``vehicle_type`` (None: not heard yet). ``guided`` on ArduSub is ``SubGuided``."""
+    if config.actuation == "guided" and vehicle_type == mavlink.MAV_TYPE_SUBMARINE:
+        return SubGuided(config.target_system, config.target_component, config.max_rudder,
+                         config.max_turn_rate, config.max_elevator, config.max_speed,
+                         config.max_depth_rate)
     if config.actuation == "rc_override":
         assert config.engage_channel is not None
         return RcOverride(config.target_system, config.target_component, config.max_rudder,

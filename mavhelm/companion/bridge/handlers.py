@@ -16,8 +16,10 @@ from typing import TYPE_CHECKING
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
+from mavhelm.companion.actuation import SUB_PRESSURE_PARAMS, SubGuided
+from mavhelm.companion.bridge.config import make_actuation
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
-from mavhelm.companion.mode_request import ROVER_MODES
+from mavhelm.companion.mode_request import modes_for
 from mavhelm.core.clock import boot_seconds
 from mavhelm.core.geodesy import lat_lon_e7
 from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
@@ -96,7 +98,12 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> Non
         return
     state = bridge.state
     state.last_heartbeat = now
-    state.mode = ROVER_MODES.get(msg.custom_mode, f"MODE{msg.custom_mode}")
+    state.vehicle_type = msg.type
+    submarine = msg.type == mavlink.MAV_TYPE_SUBMARINE
+    if bridge.config.actuation == "guided" and submarine != isinstance(bridge.actuation,
+                                                                       SubGuided):
+        bridge.actuation = make_actuation(bridge.config, msg.type)
+    state.mode = modes_for(msg.type).get(msg.custom_mode, f"MODE{msg.custom_mode}")
     state.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
     handback = bridge.send_path.handback
     if handback is not None and handback.heartbeat(state.mode):
@@ -142,7 +149,10 @@ def on_attitude(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None
 
 def on_global_position_int(bridge: MavlinkBridge, msg: Msg, now: float,
                            post: Post) -> None:
-    """The autopilot's EKF position, only while it says it has an absolute one."""
+    """The autopilot's EKF position, only while it says it has an absolute one; on ArduSub
+    also its depth, whatever the horizontal position (the pressure sensor needs no GPS)."""
+    if bridge.state.vehicle_type == mavlink.MAV_TYPE_SUBMARINE:
+        post_depth(post, "AP", msg.relative_alt / 1000.0)
     if bridge.state.ekf_position_ok is False or (msg.lat == 0 and msg.lon == 0):
         return
     x, y = bridge.origin.to_local(*lat_lon_e7(msg.lat, msg.lon))
@@ -152,6 +162,45 @@ def on_global_position_int(bridge: MavlinkBridge, msg: Msg, now: float,
     if msg.hdg != UNKNOWN_U16:
         post("AP_HEADING", msg.hdg / 100.0)
         post("AP_YAW", -math.radians(msg.hdg / 100.0))
+
+
+MAX_DEPTH_M = 11_000.0
+"""Deeper than the deepest ocean (or above the surface by as much) is not a reading."""
+
+
+def post_depth(post: Post, source: str, height: float) -> None:
+    """ArduSub's altitude is metres above the sea surface (negative under water): post
+    ``<source>_DEPTH`` (m, down) and ``<source>_Z`` (m, up). The Z = 0 plane is the surface,
+    an artificial tide of 0 (spec 2.3.1), so depth = tide − Z = −Z."""
+    if not math.isfinite(height) or abs(height) > MAX_DEPTH_M:
+        raise ValueError(f"impossible depth {-height!r} m")
+    post(f"{source}_DEPTH", 0.0 - height)
+    post(f"{source}_Z", height)
+
+
+def on_vfr_hud(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
+    """ArduSub's VFR_HUD altitude is its depth sensor's reading (Rover's is not a depth)."""
+    if bridge.state.vehicle_type == mavlink.MAV_TYPE_SUBMARINE:
+        post_depth(post, "VFR", float(msg.alt))
+
+
+GRAVITY = 9.80665
+WATER_DENSITY = 1000.0
+"""kg/m³ of fresh water: times BARO_SPEC_GRAV, the water ArduSub is told it is in."""
+
+
+def on_scaled_pressure(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
+    """ArduSub's depth sensor (barometer 1) as ``BARO_DEPTH``: the pressure above its surface
+    reading over ρ g, as ArduSub computes its own depth, once both parameters are known."""
+    params = bridge.state.view.params
+    if bridge.state.vehicle_type != mavlink.MAV_TYPE_SUBMARINE \
+            or not all(name in params for name in SUB_PRESSURE_PARAMS):
+        return
+    surface_pa, gravity = (params[name] for name in SUB_PRESSURE_PARAMS)
+    if not (math.isfinite(msg.press_abs) and surface_pa > 0 and gravity > 0):
+        raise ValueError(f"impossible pressure {msg.press_abs!r} hPa")
+    depth = (msg.press_abs * 100.0 - surface_pa) / (WATER_DENSITY * gravity * GRAVITY)
+    post_depth(post, "BARO", -depth)
 
 
 def on_distance_sensor(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
@@ -221,6 +270,8 @@ FROM_AUTOPILOT: dict[str, Handler] = {
     "ATTITUDE": on_attitude,
     "GLOBAL_POSITION_INT": on_global_position_int,
     "DISTANCE_SENSOR": on_distance_sensor,
+    "VFR_HUD": on_vfr_hud,
+    "SCALED_PRESSURE": on_scaled_pressure,
     "WHEEL_DISTANCE": on_wheel_distance,
     "SIMSTATE": on_simstate,
     "EKF_STATUS_REPORT": on_ekf_status_report,

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.mode_request import ModeRequest, Step
+from mavhelm.companion.mode_request import ModeRequest, Step, mode_numbers_for
 from mavhelm.core.bus import Message
 from mavhelm.core.thirdparty import MAX_LENGTH, REPLY_VARIABLE, TUNNEL_PAYLOAD_TYPE
 
@@ -23,9 +23,10 @@ if TYPE_CHECKING:
 
 NAMED_VALUES: dict[str, str] = {
     "NAV_X": "NAV_X", "NAV_Y": "NAV_Y", "NAV_HEADING": "NAV_HDG", "NAV_SPEED": "NAV_SPEED",
-    "DESIRED_RUDDER": "DES_RUDDER", "DESIRED_THRUST": "DES_THRUST",
+    "DESIRED_RUDDER": "DES_RUDDER", "DESIRED_THRUST": "DES_THRUST", "NAV_DEPTH": "NAV_DEPTH",
 }
-"""Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters)."""
+"""Bus variable → NAMED_VALUE_FLOAT name (MAVLink allows 10 characters). NAV_DEPTH goes only
+where pNav has one (an underwater vehicle)."""
 
 STATUSTEXT_MAX = 200
 """Longest line sent to the ground station (four chunks)."""
@@ -98,8 +99,10 @@ class OutputPath:
         rudder = self.guard("DESIRED_RUDDER", desired.get("DESIRED_RUDDER", 0.0),
                             bridge.config.max_rudder)
         thrust = self.guard("DESIRED_THRUST", desired.get("DESIRED_THRUST", 0.0), 100.0)
+        elevator = self.guard("DESIRED_ELEVATOR", desired.get("DESIRED_ELEVATOR", 0.0),
+                              bridge.config.max_elevator)
         sent = bridge.actuation.drive(bridge.link.mav, bridge.state.view, rudder, thrust,
-                                      bridge.boot_ms(now))
+                                      bridge.boot_ms(now), elevator=elevator)
         for name, value in sent.items():
             bridge.output.notify(name, value)
 
@@ -130,7 +133,13 @@ class OutputPath:
             bridge.output.notify("HELM_HANDBACK_ERROR", f"mission ended while the helm was "
                                  f"offline: the operator's mode {bridge.mode} is left alone")
             return
-        self.handback = ModeRequest(mode, HANDBACK_TRIES, HANDBACK_RETRY_S, retry_refused=True)
+        try:
+            self.handback = ModeRequest(mode, HANDBACK_TRIES, HANDBACK_RETRY_S,
+                                        retry_refused=True,
+                                        numbers=mode_numbers_for(bridge.state.vehicle_type))
+        except ValueError as exc:
+            bridge.output.notify("HELM_HANDBACK_ERROR", f"HandBack = {mode} cannot be asked "
+                                 f"of this autopilot: {exc}; the helm keeps the end values")
 
     def drive_handback(self, now: float) -> None:
         """Ask (again) for the mode until the HEARTBEAT shows it, it is refused, or the tries

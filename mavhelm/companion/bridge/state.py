@@ -11,6 +11,8 @@ from mavhelm.companion.actuation import AutopilotView
 @dataclass
 class AutopilotState:
     mode: str | None = None
+    vehicle_type: int | None = None
+    """The autopilot's HEARTBEAT type (MAV_TYPE): which mode table and actuation apply."""
     armed: bool = False
     last_heartbeat: float | None = None
     """When the autopilot's latest HEARTBEAT was heard on this connection."""

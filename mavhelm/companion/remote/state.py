@@ -20,9 +20,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from mavhelm.companion.bridge import (
     CMD_RESTART_HELM,
     COMPANION_COMPONENT,
-    ROVER_MODES,
 )
-from mavhelm.companion.mode_request import ModeRequest, Step
+from mavhelm.companion.mode_request import ModeRequest, Step, mode_numbers_for, modes_for
 from mavhelm.companion.status import CompanionStatus, MissionEnded
 from mavhelm.companion.status_text import line
 from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, decode
@@ -53,8 +52,13 @@ TEXT_LINES = 8
 NOTE_LINES = 3
 VALUE_STALE_S = 3.0
 
-def _mode_name(number: int) -> str:
-    return ROVER_MODES.get(number, f"mode#{number}")
+def _mode_name(number: int, vehicle_type: int | None = None) -> str:
+    return modes_for(vehicle_type).get(number, f"mode#{number}")
+
+
+STOP_MODES: dict[int, str] = {mavlink.MAV_TYPE_SUBMARINE: "ALT_HOLD"}
+"""ALL STOP's mode where the vehicle has no HOLD: ArduSub holds its depth in ALT_HOLD and,
+sticks centred, goes nowhere."""
 
 
 def _result_name(result: int) -> str:
@@ -87,6 +91,8 @@ class RemoteState:
     last_heartbeat: float | None = None
     link_up: bool = False
     mode: str | None = None
+    vehicle_type: int | None = None
+    """The autopilot's HEARTBEAT type: which mode table applies (Rover's until heard)."""
     armed: bool = False
     vfr: tuple[float, float, int] | None = None
     """(ground speed m/s, heading deg, throttle %) from VFR_HUD, with ``vfr_at``."""
@@ -156,7 +162,8 @@ class RemoteState:
     def _request_mode(self, mode: str) -> list[Message]:
         """Sent at once, even before a HEARTBEAT (ALL STOP is never held back); re-sent only
         while the link is up."""
-        self.mode_request = ModeRequest(mode, tries=MODE_TRIES, retry_s=MODE_RETRY_S)
+        self.mode_request = ModeRequest(mode, tries=MODE_TRIES, retry_s=MODE_RETRY_S,
+                                        numbers=mode_numbers_for(self.vehicle_type))
         return self._send_mode(self.now)
 
     def _rc(self, steer: int, throttle: int) -> Message:
@@ -327,7 +334,8 @@ class RemoteState:
             self.link_up = True
             self.status = "autopilot link up"
             out.append(self._streams())
-        mode = _mode_name(msg.custom_mode)
+        self.vehicle_type = msg.type
+        mode = _mode_name(msg.custom_mode, msg.type)
         armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         if self.mode == "MANUAL" and mode != "MANUAL" and (self.overriding or self.thrust
                                                            or self.rudder):
@@ -408,8 +416,9 @@ class RemoteState:
             self.thrust = self.rudder = 0
             return []
         out = self._release()
-        out += self._request_mode("HOLD")
-        self.status = "ALL STOP: HOLD requested, sticks released"
+        stop = STOP_MODES.get(self.vehicle_type or 0, "HOLD")
+        out += self._request_mode(stop)
+        self.status = f"ALL STOP: {stop} requested, sticks released"
         return out
 
     def _ready(self) -> str | None:
