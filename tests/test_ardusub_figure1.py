@@ -27,8 +27,8 @@ from mavhelm.core.bus import Message
 from mavhelm.core.mission import load_mission
 from mavhelm.demo.report import plot_run
 from mavhelm.sitl.truth import Truth
+from tests.support.ardupilot import CompanionProcess
 from tests.support.ardusub import SKIP_REASON, SubOperator, ardusub_binary, start_sub
-from tests.support.processes import CompanionProcess
 
 pytestmark = pytest.mark.slow
 
