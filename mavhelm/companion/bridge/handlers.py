@@ -16,10 +16,13 @@ from typing import TYPE_CHECKING
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
+from mavhelm.companion.actuation import GCS_SYSID_PARAMS
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import ROVER_MODES
+from mavhelm.companion.signing import send_setup_signing
 from mavhelm.core.clock import boot_seconds
 from mavhelm.core.geodesy import lat_lon_e7
+from mavhelm.core.sender import SenderId, mavlink_source
 from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
 
 if TYPE_CHECKING:
@@ -72,14 +75,14 @@ def _remote_flag(bridge: MavlinkBridge, param1: float, src: str) -> int:
 
 def on_tunnel(bridge: MavlinkBridge, msg: Msg) -> bool:
     """A guest's third-party request in a TUNNEL (its reply goes back the same way, to its
-    system and component); another payload type is not ours to take."""
-    if msg.payload_type != TUNNEL_PAYLOAD_TYPE:
-        return False
+    system and component), posted with its sender as the source, so the helm can check the
+    client it claims is bound to that sender."""
     length = max(0, min(int(msg.payload_length), len(msg.payload)))
     text = bytes(msg.payload[:length]).decode("utf-8", "replace")
     who = text.partition(":")[0].strip()
-    bridge.state.guests[who] = (msg.get_srcSystem(), msg.get_srcComponent())
-    bridge.input.notify(REQUEST_VARIABLE, text)
+    system, component = msg.get_srcSystem(), msg.get_srcComponent()
+    bridge.state.guests[who] = (system, component)
+    bridge.bus.notify(REQUEST_VARIABLE, text, mavlink_source(system, component))
     return True
 
 
@@ -89,12 +92,52 @@ TO_COMPANION: dict[str, CompanionHandler] = {
 }
 
 
+def _for_companion(bridge: MavlinkBridge, msg: Msg, kind: str) -> bool:
+    """Addressed to the companion, and a message it takes (a TUNNEL of another payload
+    type is someone else's)."""
+    config = bridge.config
+    if kind not in TO_COMPANION or (msg.target_system, msg.target_component) != \
+            (config.system_id, config.component_id):
+        return False
+    return kind != "TUNNEL" or msg.payload_type == TUNNEL_PAYLOAD_TYPE
+
+
+def _command_name(msg: Msg, kind: str) -> str:
+    if kind == "TUNNEL":
+        return "third-party request"
+    entry = mavlink.enums["MAV_CMD"].get(msg.command)
+    name = entry.name.removeprefix("MAV_CMD_") if entry is not None else str(msg.command)
+    return f"COMMAND_LONG {name}"
+
+
+def admitted(bridge: MavlinkBridge, msg: Msg, kind: str, now: float) -> bool:
+    """The sender check for a message to the companion: True if its sender may give it;
+    otherwise it is refused (COMMAND_ACK DENIED for a command, nothing for a TUNNEL),
+    counted, and said (rate-limited) naming the sender."""
+    sender = SenderId(msg.get_srcSystem(), msg.get_srcComponent())
+    gate = bridge.gate
+    why = gate.check(sender, msg.get_signed(), guest=kind == "TUNNEL")
+    if why is None:
+        return True
+    if kind == "COMMAND_LONG":
+        bridge.link.mav.command_ack_send(msg.command, mavlink.MAV_RESULT_DENIED, 0, 0,
+                                         sender.system, sender.component)
+    event = gate.refuse(sender, _command_name(msg, kind), why, now)
+    if event is not None:
+        bridge.input.notify("MAVLINK_SENDER_REFUSED", event.to_bus())
+    return False
+
+
 # -- from the autopilot -------------------------------------------------------------------
 
 def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
         return
     state = bridge.state
+    state.signed = msg.get_signed()
+    if not state.signed and bridge.signing and bridge.config.setup_signing \
+            and not state.signing_sent:
+        _setup_signing(bridge)
     state.last_heartbeat = now
     state.mode = ROVER_MODES.get(msg.custom_mode, f"MODE{msg.custom_mode}")
     state.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
@@ -103,6 +146,19 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> Non
         post("HELM_HANDBACK_DONE", state.mode)
     post("AP_MODE", state.mode)
     post("AP_ARMED", 1.0 if state.armed else 0.0)
+
+
+def _setup_signing(bridge: MavlinkBridge) -> None:
+    """The autopilot speaks unsigned: give it the key (once a connection), as MAVProxy's
+    ``signing setup`` does; it signs from its next packet on."""
+    config = bridge.config
+    mav = bridge.link.mav
+    assert mav.signing.secret_key is not None
+    bridge.state.signing_sent = True
+    send_setup_signing(mav, (config.target_system, config.target_component),
+                       mav.signing.secret_key)
+    bridge.input.notify("MAVLINK_LINK", "the autopilot is unsigned: signing key sent to it "
+                        "(SETUP_SIGNING)")
 
 
 def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
@@ -189,6 +245,8 @@ def on_param_value(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     name = msg.param_id.rstrip("\x00") if isinstance(msg.param_id, str) else ""
     if name and math.isfinite(msg.param_value):
         bridge.state.view.params[name] = float(msg.param_value)
+        if name in GCS_SYSID_PARAMS and 1 <= msg.param_value <= 255:
+            bridge.gate.gcs_sysid = int(msg.param_value)
 
 
 def on_rc_channels(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
@@ -238,13 +296,16 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     kind = msg.get_type()
     config = bridge.config
     src = (msg.get_srcSystem(), msg.get_srcComponent())
+    if _for_companion(bridge, msg, kind):
+        if admitted(bridge, msg, kind, now):
+            TO_COMPANION[kind](bridge, msg)
+        return
+    if bridge.gate.require_signing and not msg.get_signed():
+        bridge.unsigned_ignored += 1
+        return
     if kind == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GCS \
             and src != (config.system_id, config.component_id):
         bridge.state.gcs_heard_at = now
-        return
-    to_companion = TO_COMPANION.get(kind)
-    if to_companion is not None and (msg.target_system, msg.target_component) == \
-            (config.system_id, config.component_id) and to_companion(bridge, msg):
         return
     if src != (config.target_system, config.target_component):
         return
