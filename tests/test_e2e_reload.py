@@ -130,7 +130,7 @@ def test_a_guest_asks_over_mavlink_and_gets_its_answer(tmp_path: Path):
     from mavhelm.core.thirdparty import ThirdPartyRequest
 
     text = MISSION.format(heading=90, extra="").replace(
-        "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint\n"
+        "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint | From = 1:25\n"
         "    Task = ConstantHeading", 1)
     path = tmp_path / "guest.moos"
     path.write_text(text)
