@@ -411,3 +411,29 @@ def test_an_allow_line_without_from_takes_whom_the_bridge_lets_through():
 def test_from_is_checked_at_load(allow, reason):
     with pytest.raises(MissionError, match=reason):
         guest_rig(allow)
+
+
+# -- mavhelm check says whether the link is signed and the autopilot agrees -------------------
+
+def test_check_says_whether_the_link_is_signed_and_the_autopilot_agrees(tmp_path):
+    from mavhelm.companion.check import signature, signing_line
+
+    keyed = BridgeConfig(signing_key_file=str(key_file(tmp_path)))
+    required = BridgeConfig(signing_key_file=str(key_file(tmp_path)), require_signing=True)
+    assert str(signing_line("valid", keyed)).startswith("  ok  link signed: the autopilot "
+                                                        "signs with the companion's key")
+    assert signing_line("none", keyed).status == "WARN"
+    assert signing_line("none", required).status == "FAIL"
+    assert "SetupSigning = true" in signing_line("none", required).text
+    assert signing_line("other", keyed).status == "FAIL"
+    assert signing_line("other", BridgeConfig()).status == "FAIL"
+    assert str(signing_line("none", BridgeConfig())) == (
+        "WARN  link not signed: anyone with a radio on its network can command the vehicle "
+        "(docs/security.md)")
+    reader = mavlink.MAVLink(None)
+    reader.robust_parsing = True
+    reader.signing.secret_key = KEY
+    reader.signing.allow_unsigned_callback = lambda mav, msg_id: True
+    heartbeats = [Sender(AUTOPILOT, KEY).heartbeat(), Sender(AUTOPILOT, b"x" * 32).heartbeat(),
+                  Sender(AUTOPILOT).heartbeat()]
+    assert [signature(reader.parse_char(hb)) for hb in heartbeats] == ["valid", "other", "none"]
