@@ -360,6 +360,13 @@ def test_setup_signing_gives_an_unsigned_autopilot_the_key_once(tmp_path):
     assert abs(setup.initial_timestamp - signing_timestamp()) < 10 * 100_000
 
 
+def test_setup_signing_leaves_an_autopilot_signed_with_another_key_alone(tmp_path):
+    c = Companion(signing_key_file=str(key_file(tmp_path)), setup_signing=True)
+    written = c.hear(Sender(AUTOPILOT, passphrase_key("the operator's")).heartbeat())
+    assert "SETUP_SIGNING" not in [m.get_type() for m in written]
+    assert c.bridge.state.signed is False
+
+
 # -- guests are who their link says ----------------------------------------------------------
 
 def guest_rig(allow: str) -> HelmRig:
@@ -416,7 +423,8 @@ def test_from_is_checked_at_load(allow, reason):
 # -- mavhelm check says whether the link is signed and the autopilot agrees -------------------
 
 def test_check_says_whether_the_link_is_signed_and_the_autopilot_agrees(tmp_path):
-    from mavhelm.companion.check import signature, signing_line
+    from mavhelm.companion.check import signing_line
+    from mavhelm.companion.signing import signature
 
     keyed = BridgeConfig(signing_key_file=str(key_file(tmp_path)))
     required = BridgeConfig(signing_key_file=str(key_file(tmp_path)), require_signing=True)

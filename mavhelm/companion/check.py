@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS, engage_clash
 from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, ROVER_MODES, BridgeConfig
 from mavhelm.companion.link import AutopilotLink
+from mavhelm.companion.signing import signature
 from mavhelm.core.geodesy import Origin, lat_lon_e7
 
 VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover"}
@@ -214,13 +215,6 @@ def _record(seen: Observed, msg: mavlink.MAVLink_message, config: BridgeConfig) 
     elif kind == "STATUSTEXT":
         seen.statustexts.append(msg.text)
 
-
-
-def signature(msg: mavlink.MAVLink_message) -> str:
-    """"valid", "other" or "none": see ``Observed.signature``."""
-    if msg.get_signed():
-        return "valid"
-    return "other" if msg.get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED else "none"
 
 
 def _rc_lines(params: dict[str, float], config: BridgeConfig, gcs: int | None) -> list[Line]:

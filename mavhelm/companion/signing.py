@@ -71,6 +71,17 @@ def read_key(path: str | Path) -> bytes:
     return passphrase_key(words[0].decode("ascii"))
 
 
+def signature(msg: mavlink.MAVLink_message) -> str:
+    """How a received packet is signed: "valid" (with our key, and newer than the last from its
+    stream), "other" (a signature that is not valid: another key, or a replay; or we hold no
+    key) or "none" (unsigned)."""
+    if msg.get_signed():
+        return "valid"
+    header = msg.get_header()
+    flags = getattr(header, "incompat_flags", 0) if header is not None else 0
+    return "other" if flags & mavlink.MAVLINK_IFLAG_SIGNED else "none"
+
+
 def _accept_for_checking(mav: mavlink.MAVLink, msg_id: int) -> bool:
     """pymavlink passes unsigned (and badly signed) packets on, marked unsigned: whether one
     is obeyed is the sender check's decision, which answers a refused command."""

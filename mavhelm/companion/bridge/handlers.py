@@ -19,7 +19,7 @@ from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import ROVER_MODES
-from mavhelm.companion.signing import send_setup_signing
+from mavhelm.companion.signing import send_setup_signing, signature
 from mavhelm.core.clock import boot_seconds
 from mavhelm.core.geodesy import lat_lon_e7
 from mavhelm.core.sender import SenderId, mavlink_source
@@ -134,10 +134,6 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> Non
     if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
         return
     state = bridge.state
-    state.signed = msg.get_signed()
-    if not state.signed and bridge.signing and bridge.config.setup_signing \
-            and not state.signing_sent:
-        _setup_signing(bridge)
     state.last_heartbeat = now
     state.mode = ROVER_MODES.get(msg.custom_mode, f"MODE{msg.custom_mode}")
     state.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
@@ -146,19 +142,6 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> Non
         post("HELM_HANDBACK_DONE", state.mode)
     post("AP_MODE", state.mode)
     post("AP_ARMED", 1.0 if state.armed else 0.0)
-
-
-def _setup_signing(bridge: MavlinkBridge) -> None:
-    """The autopilot speaks unsigned: give it the key (once a connection), as MAVProxy's
-    ``signing setup`` does; it signs from its next packet on."""
-    config = bridge.config
-    mav = bridge.link.mav
-    assert mav.signing.secret_key is not None
-    bridge.state.signing_sent = True
-    send_setup_signing(mav, (config.target_system, config.target_component),
-                       mav.signing.secret_key)
-    bridge.input.notify("MAVLINK_LINK", "the autopilot is unsigned: signing key sent to it "
-                        "(SETUP_SIGNING)")
 
 
 def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
@@ -291,6 +274,26 @@ FROM_AUTOPILOT: dict[str, Handler] = {
 
 # -- routing ------------------------------------------------------------------------------
 
+def _autopilot_heartbeat(bridge: MavlinkBridge, msg: Msg) -> None:
+    """Note whether the autopilot signs; with ``SetupSigning``, give an autopilot that sends
+    no signature at all the key (once a connection), as MAVProxy's ``signing setup`` does. One
+    signed with another key is left alone: the key is the operator's to change."""
+    state = bridge.state
+    how = signature(msg)
+    state.signed = how == "valid"
+    if how != "none" or not bridge.signing or not bridge.config.setup_signing \
+            or state.signing_sent:
+        return
+    config = bridge.config
+    mav = bridge.link.mav
+    assert mav.signing.secret_key is not None
+    state.signing_sent = True
+    send_setup_signing(mav, (config.target_system, config.target_component),
+                       mav.signing.secret_key)
+    bridge.input.notify("MAVLINK_LINK", "the autopilot is unsigned: signing key sent to it "
+                        "(SETUP_SIGNING)")
+
+
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     """Route one message heard at ``now`` to its handler."""
     kind = msg.get_type()
@@ -300,6 +303,9 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
         if admitted(bridge, msg, kind, now):
             TO_COMPANION[kind](bridge, msg)
         return
+    from_autopilot = src == (config.target_system, config.target_component)
+    if from_autopilot and kind == "HEARTBEAT":
+        _autopilot_heartbeat(bridge, msg)
     if bridge.gate.require_signing and not msg.get_signed():
         bridge.unsigned_ignored += 1
         return
@@ -307,7 +313,7 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
             and src != (config.system_id, config.component_id):
         bridge.state.gcs_heard_at = now
         return
-    if src != (config.target_system, config.target_component):
+    if not from_autopilot:
         return
     bridge.state.heard.add(kind)
     time_boot_ms = getattr(msg, "time_boot_ms", None)
