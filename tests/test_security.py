@@ -445,3 +445,18 @@ def test_check_says_whether_the_link_is_signed_and_the_autopilot_agrees(tmp_path
     heartbeats = [Sender(AUTOPILOT, KEY).heartbeat(), Sender(AUTOPILOT, b"x" * 32).heartbeat(),
                   Sender(AUTOPILOT).heartbeat()]
     assert [signature(reader.parse_char(hb)) for hb in heartbeats] == ["valid", "other", "none"]
+
+
+def test_mavhelm_remote_shows_the_refusals_from_the_status_channel():
+    from mavhelm.companion.remote.state import RemoteState
+    from mavhelm.companion.remote.view import render
+
+    s = RemoteState()
+    payload = encode(SenderRefused("77:191", "COMMAND_LONG USER_1", "not an allowed sender", 4))
+    tunnel = mavlink.MAVLink_tunnel_message(0, 0, 32802, len(payload),
+                                            list(payload.ljust(128, b"\0")))
+    tunnel._header = mavlink.MAVLink_header(tunnel.id, srcSystem=1, srcComponent=191)
+    s.receive(tunnel, 1.0)
+    assert s.helm_status.refused == 4
+    assert "refused    4 commands from senders not allowed or not signed" in "\n".join(
+        render(s, 120))
