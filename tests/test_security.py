@@ -153,6 +153,7 @@ def test_the_gate_waits_for_the_autopilots_gcs_sysid_then_obeys_only_it():
     gate = SenderGate()
     assert gate.check(SenderId(*OPERATOR), signed=False) == \
         "the autopilot's MAV_GCS_SYSID is not known yet"
+    assert gate.check(LOCAL_BUS, signed=False) is None, "the bus needs no parameter"
     gate.gcs_sysid = 255
     assert gate.check(SenderId(*OPERATOR), signed=False) is None
     assert gate.check(LOCAL_BUS, signed=False) is None, "the local bus (a web view) too"

@@ -40,12 +40,13 @@ class SenderGate:
     def needs_gcs_sysid(self) -> bool:
         return self.allowed is None and self.gcs_sysid is None
 
-    def operators(self) -> tuple[SenderId, ...] | None:
-        """Who may send any command; None while the default is not known yet."""
+    def operators(self) -> tuple[SenderId, ...]:
+        """Who may send any command (by default the local bus alone until the autopilot's
+        MAV_GCS_SYSID is known)."""
         if self.allowed is not None:
             return self.allowed
         if self.gcs_sysid is None:
-            return None
+            return (LOCAL_BUS,)
         return (SenderId(self.gcs_sysid), LOCAL_BUS)
 
     def check(self, sender: SenderId, signed: bool, guest: bool = False) -> str | None:
@@ -53,12 +54,11 @@ class SenderGate:
         third-party request, which the senders bound by Allow lines may send too."""
         if self.require_signing and not sender.local and not signed:
             return "not signed, and RequireSigning is on"
-        operators = self.operators()
-        if operators is None:
-            return "the autopilot's MAV_GCS_SYSID is not known yet"
-        pool = operators + (self.guests if guest else ())
+        pool = self.operators() + (self.guests if guest else ())
         if any(allowed.matches(sender) for allowed in pool):
             return None
+        if self.needs_gcs_sysid:
+            return "the autopilot's MAV_GCS_SYSID is not known yet"
         return f"not an allowed sender (allowed: {', '.join(str(a) for a in pool)})"
 
     def refuse(self, sender: SenderId, what: str, why: str, now: float) -> SenderRefused | None:
