@@ -461,3 +461,19 @@ def test_mavhelm_remote_shows_the_refusals_from_the_status_channel():
     assert s.helm_status.refused == 4
     assert "refused    4 commands from senders not allowed or not signed" in "\n".join(
         render(s, 120))
+
+
+def test_a_telemetry_log_is_replayed_even_where_the_mission_requires_signing(tmp_path):
+    import struct
+
+    from mavhelm.companion.tlog import read_tlog
+    from mavhelm.core.mission import parse_mission
+
+    key_file(tmp_path)
+    text = ("LatOrigin = 56.4120\nLongOrigin = -5.4760\nProcessConfig = iMAVLink\n{\n"
+            "    SigningKeyFile = signing.key\n    RequireSigning = true\n}\n")
+    mission = parse_mission(text, str(tmp_path / "m.moos"))
+    log = tmp_path / "run.tlog"
+    log.write_bytes(struct.pack(">Q", 1_767_225_600_000_000) + Sender(AUTOPILOT).heartbeat())
+    replay = read_tlog(log, mission)
+    assert "AP_MODE" in [m.name for m in replay.messages]
