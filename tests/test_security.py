@@ -346,9 +346,15 @@ def test_a_packet_signed_with_another_key_is_refused(signed):
 
 def test_unsigned_telemetry_is_ignored_when_signing_is_required(signed):
     c, _, _ = signed
+    c.bus.subscribe("t", {"MAVLINK_WARNING"})
     before = c.bridge.state.last_heartbeat
     c.hear(Sender(AUTOPILOT).heartbeat())
     assert c.bridge.state.last_heartbeat == before and c.bridge.unsigned_ignored == 1
+    for _ in range(5):
+        c.hear(Sender(AUTOPILOT).heartbeat())
+    warnings = [v for n, v, _ in c.posted() if n == "MAVLINK_WARNING"]
+    assert len(warnings) == 1, "said once, after a few: SETUP_SIGNING may be on its way"
+    assert warnings[0].startswith("the autopilot's packets are not signed: all are ignored")
 
 
 def test_setup_signing_gives_an_unsigned_autopilot_the_key_once(tmp_path):

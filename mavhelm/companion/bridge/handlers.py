@@ -281,6 +281,8 @@ def _autopilot_heartbeat(bridge: MavlinkBridge, msg: Msg) -> None:
     state = bridge.state
     how = signature(msg)
     state.signed = how == "valid"
+    if bridge.gate.require_signing and not state.signed:
+        _warn_unsigned(bridge, how)
     if how != "none" or not bridge.signing or not bridge.config.setup_signing \
             or state.signing_sent:
         return
@@ -292,6 +294,24 @@ def _autopilot_heartbeat(bridge: MavlinkBridge, msg: Msg) -> None:
                        mav.signing.secret_key)
     bridge.input.notify("MAVLINK_LINK", "the autopilot is unsigned: signing key sent to it "
                         "(SETUP_SIGNING)")
+
+
+UNSIGNED_HEARTBEATS_WARNED = 3
+"""Unsigned autopilot HEARTBEATs (on one connection) before the operator is told why the
+helm hears nothing: time for SETUP_SIGNING to take effect first."""
+
+
+def _warn_unsigned(bridge: MavlinkBridge, how: str) -> None:
+    """RequireSigning and an autopilot that does not sign with the key: everything it says
+    is ignored, so the helm stays offline; say so once a connection, with the remedy."""
+    state = bridge.state
+    state.unsigned_heartbeats += 1
+    if state.unsigned_heartbeats != UNSIGNED_HEARTBEATS_WARNED:
+        return
+    what = "not signed" if how == "none" else "not validly signed (another key?)"
+    bridge.input.notify("MAVLINK_WARNING", f"the autopilot's packets are {what}: all are "
+                        "ignored, as RequireSigning is on; set the autopilot up (SetupSigning "
+                        "= true, or MAVProxy `signing setup`) with the key file's passphrase")
 
 
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:

@@ -27,6 +27,8 @@ class AutopilotState:
     """Whether the autopilot's latest HEARTBEAT was validly signed (None: none heard)."""
     signing_sent: bool = False
     """SETUP_SIGNING has been sent on this connection."""
+    unsigned_heartbeats: int = 0
+    """The autopilot's HEARTBEATs without a valid signature on this connection."""
     guests: dict[str, tuple[int, int]] = field(default_factory=dict)
     """job@client → (system, component) of guests that asked over MAVLink."""
 
@@ -37,4 +39,5 @@ class AutopilotState:
         self.armed = False
         self.signed = None
         self.signing_sent = False
+        self.unsigned_heartbeats = 0
         self.view = AutopilotView()
