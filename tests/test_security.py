@@ -344,6 +344,18 @@ def test_a_packet_signed_with_another_key_is_refused(signed):
     assert c.acks(written) == [(mavlink.MAV_CMD_USER_1, mavlink.MAV_RESULT_DENIED, 255)]
 
 
+def test_a_forged_packet_from_the_future_does_not_lock_the_operator_out(signed):
+    """pymavlink alone would record a forged packet's timestamp before finding its signature
+    wrong, and refuse every genuine packet after it as a replay."""
+    c, _, operator = signed
+    forger = Sender(OPERATOR, passphrase_key("guess"))
+    forger.mav.signing.link_id = operator.mav.signing.link_id
+    forger.mav.signing.timestamp = operator.mav.signing.timestamp + 10**12
+    c.hear(forger.command(mavlink.MAV_CMD_USER_1))
+    written = c.hear(operator.command(mavlink.MAV_CMD_USER_1))
+    assert c.acks(written) == [(mavlink.MAV_CMD_USER_1, mavlink.MAV_RESULT_ACCEPTED, 255)]
+
+
 def test_unsigned_telemetry_is_ignored_when_signing_is_required(signed):
     c, _, _ = signed
     c.bus.subscribe("t", {"MAVLINK_WARNING"})

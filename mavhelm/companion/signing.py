@@ -16,6 +16,7 @@ import hashlib
 import os
 import stat
 import time
+import types
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -88,9 +89,38 @@ def _accept_for_checking(mav: mavlink.MAVLink, msg_id: int) -> bool:
     return True
 
 
+NEW_STREAM_SLACK = 6_000_000
+"""A new stream's first timestamp may be this much (one minute) behind ours (the spec's rule)."""
+
+
+def check_signature(mav: mavlink.MAVLink, msgbuf: bytearray, src_system: int,
+                    src_component: int) -> bool:
+    """pymavlink's ``MAVLink.check_signature`` with the signature checked before the stream's
+    timestamp is advanced, as the MAVLink C library does: pymavlink advances it first, so one
+    forged packet with a far-future timestamp would make every genuine packet of that sender
+    look like a replay from then on."""
+    signing = mav.signing
+    assert signing.secret_key is not None
+    digest = hashlib.sha256(signing.secret_key + bytes(msgbuf[:-6])).digest()[:6]
+    if digest != bytes(msgbuf[-6:]):
+        return False
+    link_id = msgbuf[-13]
+    timestamp = int.from_bytes(bytes(msgbuf[-12:-6]), "little")
+    stream = (link_id, src_system, src_component)
+    last = signing.stream_timestamps.get(stream)
+    if last is not None and timestamp <= last:
+        return False  # a replay, or out of order
+    if last is None and timestamp + NEW_STREAM_SLACK < signing.timestamp:
+        return False  # a new stream far in the past: a recording
+    signing.stream_timestamps[stream] = timestamp
+    signing.timestamp = max(signing.timestamp, timestamp)
+    return True
+
+
 def enable_signing(mav: mavlink.MAVLink, key: bytes, link_id: int = LINK_ID) -> None:
     """Sign everything ``mav`` sends with ``key``, and check the signatures of what it reads
     (``msg.get_signed()``); the timestamp starts at the wall clock's."""
+    mav.check_signature = types.MethodType(check_signature, mav)  # type: ignore[method-assign]
     mav.signing.secret_key = key
     mav.signing.sign_outgoing = True
     mav.signing.allow_unsigned_callback = _accept_for_checking
