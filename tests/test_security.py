@@ -495,3 +495,13 @@ def test_a_telemetry_log_is_replayed_even_where_the_mission_requires_signing(tmp
     log.write_bytes(struct.pack(">Q", 1_767_225_600_000_000) + Sender(AUTOPILOT).heartbeat())
     replay = read_tlog(log, mission)
     assert "AP_MODE" in [m.name for m in replay.messages]
+
+
+def test_a_local_control_asks_the_same_check(unsigned):
+    c, _, _, _ = unsigned
+    bridge = c.bridge
+    assert bridge.authorize(LOCAL_BUS, False, "web: all stop", 1.0) is None
+    bridge.gate.allowed = (SenderId(255),)
+    assert bridge.authorize(LOCAL_BUS, False, "web: all stop", 1.0) == \
+        "not an allowed sender (allowed: 255)"
+    assert c.posted()[-1][1] == "local|web: all stop|1|not an allowed sender (allowed: 255)"

@@ -29,6 +29,7 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import boot_ms
 from mavhelm.core.errors import SettingError
 from mavhelm.core.geodesy import Origin
+from mavhelm.core.sender import SenderId
 from mavhelm.core.thirdparty import REPLY_VARIABLE
 
 BAD_MESSAGE_ERRORS = (ValueError, TypeError, AttributeError, OverflowError)
@@ -106,6 +107,18 @@ class MavlinkBridge:
     @property
     def refused_outputs(self) -> int:
         return self.send_path.refused_outputs
+
+    def authorize(self, sender: SenderId, signed: bool, what: str, now: float,
+                  guest: bool = False) -> str | None:
+        """The one check every command to the companion passes (MAVLink here; a web view's
+        control with ``LOCAL_BUS``): None if ``sender`` may give it, else why not, the refusal
+        counted and said (``MAVLINK_SENDER_REFUSED``, at most once per sender every few s)."""
+        why = self.gate.check(sender, signed, guest)
+        if why is not None:
+            event = self.gate.refuse(sender, what, why, now)
+            if event is not None:
+                self.input.notify("MAVLINK_SENDER_REFUSED", event.to_bus())
+        return why
 
     def boot_ms(self, now: float) -> int:
         """The companion's own ``time_boot_ms``: milliseconds since it first ticked."""

@@ -115,16 +115,13 @@ def admitted(bridge: MavlinkBridge, msg: Msg, kind: str, now: float) -> bool:
     otherwise it is refused (COMMAND_ACK DENIED for a command, nothing for a TUNNEL),
     counted, and said (rate-limited) naming the sender."""
     sender = SenderId(msg.get_srcSystem(), msg.get_srcComponent())
-    gate = bridge.gate
-    why = gate.check(sender, msg.get_signed(), guest=kind == "TUNNEL")
+    why = bridge.authorize(sender, msg.get_signed(), _command_name(msg, kind), now,
+                           guest=kind == "TUNNEL")
     if why is None:
         return True
     if kind == "COMMAND_LONG":
         bridge.link.mav.command_ack_send(msg.command, mavlink.MAV_RESULT_DENIED, 0, 0,
                                          sender.system, sender.component)
-    event = gate.refuse(sender, _command_name(msg, kind), why, now)
-    if event is not None:
-        bridge.input.notify("MAVLINK_SENDER_REFUSED", event.to_bus())
     return False
 
 

@@ -1,7 +1,8 @@
 """Who may command the companion: the one check every command goes through.
 
-Restart, remote flags, third-party requests and any later control (a web view's) ask
-:meth:`SenderGate.check` with the sender and whether its packet was signed. Allowed are the
+Restart, remote flags, third-party requests and any later control (a web view's) go through
+``MavlinkBridge.authorize``, which asks :meth:`SenderGate.check` with the sender and whether
+its packet was signed. Allowed are the
 mission's ``AllowedSenders`` or, by default, the autopilot's own ground station
 (``MAV_GCS_SYSID``, read from the autopilot) and the local bus; a third-party request may also
 come from a sender an ``Allow`` line binds (``From``). With ``RequireSigning`` an unsigned
