@@ -69,6 +69,7 @@ def _check(args: argparse.Namespace) -> int:
     from mavhelm.companion.check import checklist, observe
     from mavhelm.companion.companion import Plan
     from mavhelm.companion.link import AutopilotLink, transport_for
+    from mavhelm.companion.signing import KeyFileError, enable_signing, read_key
     from mavhelm.core.clock import WallClock
 
     config, origin, problem = BridgeConfig(), None, ""
@@ -89,7 +90,12 @@ def _check(args: argparse.Namespace) -> int:
     link = AutopilotLink(config.connect, config.baud, config.system_id, config.component_id,
                          config.target_system, config.target_component)
     try:
+        if config.signing_key_file is not None:
+            enable_signing(link.mav, read_key(config.signing_key_file))
         seen = observe(link, config, args.listen)
+    except KeyFileError as exc:
+        print(f"mavhelm check: {exc}", file=sys.stderr)
+        return 2
     finally:
         link.close()
     lines = checklist(seen, config, origin, problem)
@@ -104,6 +110,7 @@ def _check(args: argparse.Namespace) -> int:
 def _request(args: argparse.Namespace) -> int:
     from mavhelm.companion.guest import GUEST_COMPONENT, send_request
     from mavhelm.companion.link import AutopilotLink
+    from mavhelm.companion.signing import KeyFileError, enable_signing, read_key
     from mavhelm.core.thirdparty import RequestError, ThirdPartyRequest
 
     if not args.close and not args.task:
@@ -122,6 +129,12 @@ def _request(args: argparse.Namespace) -> int:
     target, source = args.target, args.source
     link = AutopilotLink(args.connect, system_id=source[0], component_id=source[1] or
                          GUEST_COMPONENT, target_system=target[0], target_component=target[1])
+    if args.key_file is not None:
+        try:
+            enable_signing(link.mav, read_key(args.key_file))
+        except KeyFileError as exc:
+            print(f"mavhelm request: {exc}", file=sys.stderr)
+            return 2
     print(f"mavhelm request: {text}", flush=True)
     try:
         reply = send_request(link, text, (target[0], target[1]), args.wait)
@@ -262,6 +275,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="the companion (default 1:191)")
     request.add_argument("--source", default="1:25", type=_system_component,
                          help="this guest's system:component (default 1:25)")
+    request.add_argument("--key-file", default=None,
+                         help="sign the request (MAVLink 2 signing) with the passphrase in this "
+                              "file (chmod 600), where the companion requires signing")
     request.add_argument("--wait", type=runner.positive_number, default=5.0,
                          help="seconds to wait for the answer")
     request.set_defaults(func=_request, usage_error=request.error)

@@ -113,7 +113,7 @@ def test_a_guest_asks_over_mavlink_and_gets_its_answer(tmp_path: Path):
     from mavhelm.core.thirdparty import ThirdPartyRequest
 
     text = mission(90).replace(
-        "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint\n"
+        "    Task = ConstantHeading", "    Allow = Sample@iScience:GoToWayPoint | From = 1:25\n"
         "    Task = ConstantHeading", 1)
     path = tmp_path / "guest.moos"
     path.write_text(text)

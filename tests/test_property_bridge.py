@@ -166,7 +166,8 @@ def check_written(result: TickResult, config: BridgeConfig) -> None:
     for msg in result.written_by_receive + result.written_by_send:
         assert (msg.get_srcSystem(), msg.get_srcComponent()) == COMPANION
         assert msg.get_type() in {"HEARTBEAT", "COMMAND_LONG", "SET_ATTITUDE_TARGET",
-                                  "NAMED_VALUE_FLOAT"}
+                                  "NAMED_VALUE_FLOAT",
+                                  "PARAM_REQUEST_READ"}  # MAV_GCS_SYSID: who may command
         if msg.get_type() == "NAMED_VALUE_FLOAT":
             assert math.isfinite(msg.value)
     for msg in result.targets():
@@ -498,7 +499,8 @@ def test_the_rig_sees_real_mavlink_both_ways():
                 Message("DESIRED_THRUST", 50.0, 1000.0, "pHelm")]
     result = rig.tick(1000.0, [rig.frame(GOOD_HEARTBEAT)], mail_now)
     assert result.online and rig.bridge.link_up and rig.bridge.mode == "GUIDED"
-    assert {m.get_type() for m in result.written_by_receive} == {"COMMAND_LONG"}
+    assert {m.get_type() for m in result.written_by_receive} == {
+        "COMMAND_LONG", "PARAM_REQUEST_READ"}  # streams; MAV_GCS_SYSID (who may command)
     assert [m.get_type() for m in result.written_by_send] == [
         "HEARTBEAT", "NAMED_VALUE_FLOAT", "NAMED_VALUE_FLOAT", "SET_ATTITUDE_TARGET"]
     assert [(m.name, m.value) for m in result.written_by_send[1:3]] == [

@@ -136,7 +136,7 @@ def test_dive_task_modes(tblock: TBlock) -> None:
 
 
 def test_the_helm_posts_the_depth_controllers_elevator_and_limit_depth_outranks_it() -> None:
-    from helm_rig import Rig, Spec, safety
+    from tests.support.helm_rig import Rig, Spec, safety
 
     spec = Spec()
     tasks = [spec.task("ConstantDepth", ("Name", "Hold"), ("Depth", "20"), ("Priority", "3"),

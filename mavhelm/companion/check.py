@@ -20,6 +20,7 @@ from mavhelm.companion.actuation import GCS_SYSID_PARAMS, engage_clash
 from mavhelm.companion.bridge import FAR_FROM_ORIGIN_M, BridgeConfig
 from mavhelm.companion.link import AutopilotLink
 from mavhelm.companion.mode_request import modes_for
+from mavhelm.companion.signing import signature
 from mavhelm.core.geodesy import Origin, lat_lon_e7
 
 VEHICLE_TYPES = {mavlink.MAV_TYPE_SURFACE_BOAT: "boat", mavlink.MAV_TYPE_GROUND_ROVER: "rover",
@@ -40,6 +41,9 @@ class Observed:
     ekf_flags: int | None = None
     params: dict[str, float] = field(default_factory=dict)
     statustexts: list[str] = field(default_factory=list)
+    signature: str | None = None
+    """The autopilot's latest HEARTBEAT: "valid" (signed with our key), "other" (signed, not
+    with our key, or we have none) or "none" (unsigned); None if none was heard."""
 
 
 @dataclass(frozen=True)
@@ -103,12 +107,34 @@ def checklist(seen: Observed, config: BridgeConfig, origin: Origin | None,
         else:
             lines.append(Line("ok", f"the vehicle is {distance:.0f} m from the mission's origin"))
     lines += _param_lines(seen.params, config)
+    lines.append(signing_line(seen.signature, config))
     modes = ", ".join(config.online_modes)
     lines.append(Line("ok", f"to hand over: arm, then select {modes}"
                             + (f" and raise RC{config.engage_channel} above "
                                f"{config.engage_pwm}" if config.actuation == "rc_override"
                                else "")))
     return lines
+
+
+def signing_line(signature: str | None, config: BridgeConfig) -> Line:
+    """Whether the link is signed, and whether the autopilot agrees (docs/security.md)."""
+    keyed = config.signing_key_file is not None
+    setup = ("set SetupSigning = true in iMAVLink, or in MAVProxy `signing setup PASSPHRASE` "
+             "with the key file's passphrase")
+    if signature == "valid":
+        return Line("ok", "link signed: the autopilot signs with the companion's key"
+                          + ("" if config.require_signing else
+                             " (RequireSigning = true would refuse all unsigned input)"))
+    if signature == "other":
+        return Line("FAIL", "the autopilot signs with a key the companion does not have: it "
+                            "will refuse the companion's packets; "
+                            + ("give SigningKeyFile the autopilot's passphrase" if keyed else
+                               "set SigningKeyFile in iMAVLink to its passphrase's file"))
+    if keyed:
+        return Line("FAIL" if config.require_signing else "WARN",
+                    "the companion signs, but the autopilot does not: " + setup)
+    return Line("WARN", "link not signed: anyone with a radio on its network can command the "
+                        "vehicle (docs/security.md)")
 
 
 def _param_lines(params: dict[str, float], config: BridgeConfig) -> list[Line]:
@@ -178,6 +204,7 @@ def _record(seen: Observed, msg: mavlink.MAVLink_message, config: BridgeConfig) 
     seen.heard.add(kind)
     if kind == "HEARTBEAT" and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
         seen.heartbeat = msg
+        seen.signature = signature(msg)
     elif kind == "GPS_RAW_INT":
         seen.gps_fix = msg.fix_type
         if msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:

@@ -160,6 +160,7 @@ class Companion:
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
         bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
                                time_source=getattr(clock, "observe", None))
+        bridge.gate.guests = helm.third_party.bound_senders()
         apps: list[App] = [*plan.instruments, bridge.input, navigator, helm, bridge.output]
         nav_logs: NavLogFiles | None = None
         if alog_path is not None:
@@ -200,6 +201,7 @@ class Companion:
         helm.nav = self.helm.nav
         apps = self.community.apps
         apps[apps.index(self.helm)] = helm
+        self.bridge.gate.guests = helm.third_party.bound_senders()
         link = plan.link.replace(connect=self.plan.link.connect)  # --connect kept
         kept = [what for what, same in (("iMAVLink", link == self.plan.link),
                                         ("origin", plan.origin == self.plan.origin),

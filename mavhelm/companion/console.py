@@ -38,6 +38,7 @@ from mavhelm.companion.status import (
     NavSource,
     NavWarning,
     RemoteFlagPosted,
+    SenderRefused,
     Severity,
     TaskEnded,
     TaskEvent,
@@ -93,6 +94,7 @@ EVENT_OF: dict[str, Callable[[Message], Event]] = {
     "AP_STATUSTEXT": lambda m: AutopilotText(m.string),
     "NAV_WARNING": lambda m: NavWarning(m.string),
     NAVIGATION_FAILURE: lambda m: NavFailure(m.string),
+    "MAVLINK_SENDER_REFUSED": lambda m: SenderRefused.from_bus(m.string),
 }
 """Bus variables that are status events, and which."""
 

@@ -158,6 +158,27 @@ class NavFailure:
 
 
 @dataclass(frozen=True, slots=True)
+class SenderRefused:
+    """A command to the companion refused for who sent it (not allowed, or unsigned where
+    signing is required); ``count``: commands refused so far. Said at most once every few
+    seconds per sender, so the count is the whole story."""
+
+    sender: str
+    what: str
+    why: str
+    count: int
+
+    def to_bus(self) -> str:
+        """The bus variable's text (``MAVLINK_SENDER_REFUSED``): one field a ``|``."""
+        return f"{self.sender}|{self.what}|{self.count}|{self.why}"
+
+    @classmethod
+    def from_bus(cls, text: str) -> SenderRefused:
+        sender, what, count, why = (text.split("|", 3) + ["", "", ""])[:4]
+        return cls(sender, what, why, int(count) if count.isdigit() else 0)
+
+
+@dataclass(frozen=True, slots=True)
 class Snapshot:
     """The state in one message, sent once a second so a console that joins late catches up.
 
@@ -176,7 +197,7 @@ class Snapshot:
 Event: TypeAlias = (LinkUp | LinkNote | AutopilotMode | Armed | HelmState | TaskStarted
                     | TaskEnded | TaskEvent | Goal | Alert | MissionEnded | HelmReloaded
                     | HandedBack | RemoteFlagPosted | ThirdPartyReply | AutopilotText
-                    | NavSource | NavWarning | NavFailure | Snapshot)
+                    | NavSource | NavWarning | NavFailure | SenderRefused | Snapshot)
 
 NO_SOURCE = "NONE"
 
@@ -202,6 +223,8 @@ class CompanionStatus:
     nav_warning: str | None = None
     nav_failure: str | None = None
     last_alert: Alert | None = None
+    refused: int = 0
+    """Commands to the companion refused for their sender."""
 
     def apply(self, event: Event) -> CompanionStatus:
         """The state after ``event``; events that change nothing return ``self``."""
@@ -268,6 +291,7 @@ _REDUCERS: dict[type, Callable[[CompanionStatus, Any], CompanionStatus]] = {
     NavSource: _nav_source,
     NavWarning: lambda s, e: _replace(s, nav_warning=e.text),
     NavFailure: lambda s, e: _replace(s, nav_failure=e.why),
+    SenderRefused: lambda s, e: _replace(s, refused=max(s.refused, e.count)),
     Snapshot: _snapshot,
 }
 """How each kind of event changes the state; kinds not listed (notes, flags, replies, the

@@ -26,6 +26,7 @@ from mavhelm.companion.status import (
     NavSource,
     NavWarning,
     RemoteFlagPosted,
+    SenderRefused,
     Severity,
     TaskEnded,
     TaskEvent,
@@ -66,6 +67,8 @@ LINES: dict[type, Callable] = {
     NavSource: _nav_source,
     NavWarning: lambda e: f"NAV_WARNING: {e.text}",
     NavFailure: lambda e: f"NAVIGATION FAILURE: {e.why}",
+    SenderRefused: lambda e: (f"REFUSED {e.what} from {e.sender}: {e.why} "
+                              f"({e.count} refused so far)"),
 }
 """Each kind of event as a line (a snapshot is not news: it has none)."""
 
@@ -82,6 +85,7 @@ GCS_SEVERITY: dict[type, Severity] = {
     TaskEnded: Severity.INFO,
     NavWarning: Severity.WARNING,
     NavFailure: Severity.ERROR,
+    SenderRefused: Severity.WARNING,
 }
 """The helm's events a ground station is told about; alerts carry their own severity. A NAV
 source is console only: every queue starts without one, and the tasks' starvation (an

@@ -6,7 +6,8 @@ reads these instead, and never has to parse English. Both ends use this module: 
 
 A payload is ``WIRE_VERSION``, the event's kind code, then its fields in declaration order:
 a flag is one byte (0/1), an unknown-or-flag one byte (0 unknown, 1 no, 2 yes), a severity one
-byte, a string one length byte and UTF-8, a list of names a count byte and the names. It fits
+byte, a count four bytes (big-endian), a string one length byte and UTF-8, a list of names a
+count byte and the names. It fits
 ``MAX_PAYLOAD`` bytes: control characters become ``?``, a name is cut to ``NAME_MAX`` bytes,
 a snapshot names as many tasks as fit (and says so), and free text gets the room left, cut on
 a character boundary. :func:`fit` is an event exactly as it will arrive. Anything else —
@@ -37,6 +38,7 @@ from mavhelm.companion.status import (
     NavSource,
     NavWarning,
     RemoteFlagPosted,
+    SenderRefused,
     Severity,
     Snapshot,
     TaskEnded,
@@ -57,7 +59,7 @@ end still matches its start."""
 TASKS_RESERVE = 40
 """Bytes of a snapshot kept for its texts however many tasks run."""
 
-Kind = Literal["flag", "maybe", "severity", "name", "opt_name", "text", "names"]
+Kind = Literal["flag", "maybe", "severity", "count", "name", "opt_name", "text", "names"]
 
 LAYOUTS: dict[type, tuple[int, tuple[Kind, ...]]] = {
     LinkUp: (1, ("flag",)),
@@ -80,11 +82,14 @@ LAYOUTS: dict[type, tuple[int, tuple[Kind, ...]]] = {
     NavWarning: (18, ("text",)),
     NavFailure: (19, ("text",)),
     Snapshot: (20, ("maybe", "text", "opt_name", "maybe", "names", "name", "text", "flag")),
+    SenderRefused: (21, ("name", "name", "text", "count")),
 }
 """Each event's kind code and how each of its fields (in declaration order) travels."""
 _BY_CODE = {code: (cls, kinds) for cls, (code, kinds) in LAYOUTS.items()}
 _HEADER = 2
 _NONE = 0xFF
+COUNT_MAX = 0xFFFFFFFF
+"""A count travels as 4 bytes, big-endian; a larger one arrives as this."""
 """Length byte of an absent optional name."""
 
 
@@ -110,6 +115,8 @@ def _name(value: str) -> str:
 def _size(kind: Kind, value: object) -> int:
     if kind in ("flag", "maybe", "severity"):
         return 1
+    if kind == "count":
+        return 4
     if kind == "names":
         assert isinstance(value, tuple)
         return 1 + sum(1 + len(v.encode("utf-8")) for v in value)
@@ -136,6 +143,8 @@ def fit(event: Event) -> Event:
     for i, kind in enumerate(kinds):
         if kind in ("name", "opt_name") and values[i] is not None:
             values[i] = _name(str(values[i]))
+        if kind == "count":
+            values[i] = max(0, min(COUNT_MAX, int(values[i])))  # type: ignore[call-overload]
     room = MAX_PAYLOAD - _HEADER - sum(_size(k, v) for k, v in zip(kinds, values, strict=True)
                                        if k not in ("text", "names"))
     room -= sum(1 for k in kinds if k == "text")
@@ -166,6 +175,8 @@ def _pack(kind: Kind, value: object) -> bytes:
         return bytes([0 if value is None else 2 if value else 1])
     if kind == "severity":
         return bytes([int(value)])  # type: ignore[call-overload]
+    if kind == "count":
+        return max(0, min(COUNT_MAX, int(value))).to_bytes(4, "big")  # type: ignore[call-overload]
     if kind == "names":
         assert isinstance(value, tuple)
         return bytes([len(value)]) + b"".join(_pack_string(v) for v in value)
@@ -214,6 +225,8 @@ class _Reader:
             return bool(value) if kind == "flag" else (None if value == 0 else value == 2)
         if kind == "severity":
             return Severity(self.byte())
+        if kind == "count":
+            return int.from_bytes(bytes(self.byte() for _ in range(4)), "big")
         if kind == "names":
             return tuple(self.string(NAME_MAX) for _ in range(self.byte()))
         if kind == "opt_name":

@@ -25,6 +25,7 @@ from mavhelm.core.names import (
     source_variable,
 )
 from mavhelm.core.params import Number, Param, PathName, Refused, Schema
+from mavhelm.core.sender import sender_of_source
 from mavhelm.core.thirdparty import REPLY_VARIABLE, REQUEST_VARIABLE
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.end_mission import EndMission
@@ -64,7 +65,8 @@ class Helm(App):
         self.gains = HelmGains.from_values(settings)
         self.app_tick: float = settings["app_tick"]
         self.third_party = ThirdParty(settings["allow"], self.gains)
-        self._requests: list[str] = []
+        self._requests: list[tuple[str, str]] = []
+        """(request text, bus source) of the guests' requests this tick."""
         self.tasks: list[Task] = []
         seen: dict[str, Block] = {}
         for tb in task_blocks:
@@ -181,7 +183,7 @@ class Helm(App):
             if msg.name == ONLINE_VAR:
                 self.online = msg.is_double and msg.double == 1.0
             if msg.name == REQUEST_VARIABLE:
-                self._requests.append(msg.string)
+                self._requests.append((msg.string, msg.source))
             self.nav.update(msg)
             for t in listeners.get(msg.name, ()):
                 t.offer(msg, now)
@@ -213,11 +215,12 @@ class Helm(App):
         """Answer the guests' requests (spec 1.3): start what is granted, close what is
         closed, tell each requester why when denied."""
         requests, self._requests = self._requests, []
-        for text in requests:
+        for text, source in requests:
             names = {t.name for t in self.tasks}
             closed = ("the mission has ended" if self.mission_ended else None if self.online
                       else "the helm is offline: the operator has the vehicle")
-            reply, task, closing = self.third_party.handle(text, closed, now, names)
+            reply, task, closing = self.third_party.handle(text, closed, now, names,
+                                                           sender_of_source(source))
             self.notify(REPLY_VARIABLE, str(reply))
             if task is not None:
                 task.watcher = self

@@ -8,6 +8,7 @@ checked in ``BridgeConfig.from_block`` with the offending line.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -23,9 +24,22 @@ from mavhelm.companion.actuation import (
 from mavhelm.companion.link import transport_for
 from mavhelm.companion.mode_request import ALL_MODE_NAMES
 from mavhelm.companion.servos import Servo, ServoSpec
+from mavhelm.companion.signing import KeyFileError, read_key
 from mavhelm.core.mission import Block, Entry, MissionError
 from mavhelm.core.moos import APP_PARAMS
-from mavhelm.core.params import Choice, ChoiceList, Kind, Number, Param, Schema, Text, Word
+from mavhelm.core.params import (
+    Boolean,
+    Choice,
+    ChoiceList,
+    Kind,
+    Number,
+    Param,
+    PathName,
+    Schema,
+    Text,
+    Word,
+)
+from mavhelm.core.sender import SenderId, parse_sender
 
 COMPANION_COMPONENT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 
@@ -74,6 +88,45 @@ class LinkAddress(Text):
         except ValueError as exc:
             raise entry.error(f"{entry.key}: {exc}") from None
         return text
+
+
+class KeyFile(PathName):
+    """The signing key's file, relative to the mission's folder: read and checked at load
+    (owner-only, one passphrase), so a bad one is refused before anything starts. Only the
+    path is kept; the key is read again when the link is set up, and never logged."""
+
+    def describe(self) -> str:
+        return "a path to a file readable by its owner only, holding one passphrase"
+
+    def parse(self, entry: Entry) -> str:
+        text = super().parse(entry)
+        path = Path(text).expanduser()
+        if not path.is_absolute() and entry.file:
+            path = Path(entry.file).parent / path
+        try:
+            read_key(path)
+        except KeyFileError as exc:
+            raise entry.error(f"{entry.key}: {exc}") from None
+        return str(path)
+
+
+class SenderList(Kind):
+    """``SYSTEM``, ``SYSTEM:COMPONENT`` or ``local``, separated by commas."""
+
+    def describe(self) -> str:
+        return "SYSTEM, SYSTEM:COMPONENT or local (the companion's bus), comma separated"
+
+    def check_value(self, value: Any) -> bool:
+        return isinstance(value, tuple) and all(isinstance(v, SenderId) for v in value)
+
+    def parse(self, entry: Entry) -> tuple[SenderId, ...]:
+        senders = []
+        for word in entry.value.split(","):
+            try:
+                senders.append(parse_sender(word))
+            except ValueError as exc:
+                raise entry.error(f"{entry.key}: {exc}") from None
+        return tuple(senders)
 
 
 MAVLINK_ID = Number(1, 255, integer=True)
@@ -138,6 +191,18 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("Stream", StreamRate(), [], repeat=True, attr="stream_rates",
           doc="a telemetry rate to ask for, on top of the defaults "
               "(" + ", ".join(f"{k}@{v:g}" for k, v in DEFAULT_STREAMS.items()) + ")"),
+    Param("SigningKeyFile", KeyFile(), None, attr="signing_key_file",
+          doc="MAVLink 2 signing: the file holding the passphrase (MAVProxy's `signing setup` "
+              "word; chmod 600); the companion then signs all it sends (docs/security.md)"),
+    Param("RequireSigning", Boolean(), False, attr="require_signing",
+          doc="obey only signed packets: unsigned commands are refused and unsigned telemetry "
+              "ignored (needs SigningKeyFile, and the autopilot set up to sign)"),
+    Param("SetupSigning", Boolean(), False, attr="setup_signing",
+          doc="send the key to the autopilot (SETUP_SIGNING, as MAVProxy's `signing setup`) "
+              "when it is heard unsigned; needs SigningKeyFile"),
+    Param("AllowedSenders", SenderList(), None, attr="allowed_senders",
+          doc="who may command the companion (restart, remote flags, third-party requests); "
+              "default: the autopilot's MAV_GCS_SYSID and local"),
 ), moos=APP_PARAMS)
 
 
@@ -172,6 +237,10 @@ class BridgeConfig:
     stream_rates: list[tuple[str, float]]
     max_speed: float
     max_depth_rate: float
+    signing_key_file: str | None
+    require_signing: bool
+    setup_signing: bool
+    allowed_senders: tuple[SenderId, ...] | None
     max_rudder: float
     max_elevator: float
     streams: dict[str, float]
@@ -225,6 +294,11 @@ class BridgeConfig:
                 cfg.online_modes = ("MANUAL",)
             cfg.streams.setdefault("RC_CHANNELS", 5.0)
         check_servos(cfg, block)
+        for name, wanted in (("RequireSigning", cfg.require_signing),
+                             ("SetupSigning", cfg.setup_signing)):
+            if wanted and cfg.signing_key_file is None:
+                raise block.require(name).error(f"{name} needs SigningKeyFile: the key to "
+                                                "sign with")
         return cfg
 
 

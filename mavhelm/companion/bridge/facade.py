@@ -17,15 +17,19 @@ from mavhelm.companion.bridge.config import BridgeConfig, make_actuation
 from mavhelm.companion.bridge.handlers import handle
 from mavhelm.companion.bridge.output import NAMED_VALUES, OutputPath
 from mavhelm.companion.bridge.readings import WheelOdometry
+from mavhelm.companion.bridge.senders import SenderGate
 from mavhelm.companion.bridge.state import AutopilotState
 from mavhelm.companion.bridge.supervisor import LinkSupervisor
 from mavhelm.companion.link import AutopilotLink
 from mavhelm.companion.mode_request import ModeRequest
 from mavhelm.companion.servos import ServoOutputs
+from mavhelm.companion.signing import KeyFileError, enable_signing, keep_time, read_key
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import boot_ms
+from mavhelm.core.errors import SettingError
 from mavhelm.core.geodesy import Origin
+from mavhelm.core.sender import SenderId
 from mavhelm.core.thirdparty import REPLY_VARIABLE
 
 BAD_MESSAGE_ERRORS = (ValueError, TypeError, AttributeError, OverflowError)
@@ -46,6 +50,16 @@ class MavlinkBridge:
             config.target_system, config.target_component)
         self.time_source = time_source
         """Told every autopilot ``time_boot_ms`` (in seconds): the autopilot clock's feed."""
+        self.signing = config.signing_key_file is not None
+        """Whether the companion signs what it sends (and checks what it reads)."""
+        if config.signing_key_file is not None:
+            try:
+                enable_signing(self.link.mav, read_key(config.signing_key_file))
+            except KeyFileError as exc:
+                raise SettingError("iMAVLink SigningKeyFile", "the signing key", exc) from None
+        self.gate = SenderGate(config.allowed_senders, config.require_signing)
+        self.unsigned_ignored = 0
+        """Unsigned packets ignored because signing is required."""
         self.actuation = make_actuation(config)
         self.servos = ServoOutputs(tuple(config.servos), config.target_system,
                                    config.target_component)
@@ -94,6 +108,18 @@ class MavlinkBridge:
     def refused_outputs(self) -> int:
         return self.send_path.refused_outputs
 
+    def authorize(self, sender: SenderId, signed: bool, what: str, now: float,
+                  guest: bool = False) -> str | None:
+        """The one check every command to the companion passes (MAVLink here; a web view's
+        control with ``LOCAL_BUS``): None if ``sender`` may give it, else why not, the refusal
+        counted and said (``MAVLINK_SENDER_REFUSED``, at most once per sender every few s)."""
+        why = self.gate.check(sender, signed, guest)
+        if why is not None:
+            event = self.gate.refuse(sender, what, why, now)
+            if event is not None:
+                self.input.notify("MAVLINK_SENDER_REFUSED", event.to_bus())
+        return why
+
     def boot_ms(self, now: float) -> int:
         """The companion's own ``time_boot_ms``: milliseconds since it first ticked."""
         return boot_ms(0.0 if self._boot_time is None else now - self._boot_time)
@@ -111,6 +137,8 @@ class MavlinkBridge:
             self._generation = self.link.generation
             self.state.forget_autopilot()
             self.supervisor.forget_autopilot()
+        if self.signing:
+            keep_time(self.link.mav)
         for msg in messages:
             # An autopilot clock moves as its stamps are read: a message is heard at the
             # clock's time now, not at the start of the tick (else a live link would look

@@ -16,12 +16,14 @@ from typing import TYPE_CHECKING
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
-from mavhelm.companion.actuation import SUB_PRESSURE_PARAMS, SubGuided
+from mavhelm.companion.actuation import GCS_SYSID_PARAMS, SUB_PRESSURE_PARAMS, SubGuided
 from mavhelm.companion.bridge.config import make_actuation
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import modes_for
+from mavhelm.companion.signing import send_setup_signing, signature
 from mavhelm.core.clock import boot_seconds
 from mavhelm.core.geodesy import lat_lon_e7
+from mavhelm.core.sender import SenderId, mavlink_source
 from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
 
 if TYPE_CHECKING:
@@ -74,14 +76,14 @@ def _remote_flag(bridge: MavlinkBridge, param1: float, src: str) -> int:
 
 def on_tunnel(bridge: MavlinkBridge, msg: Msg) -> bool:
     """A guest's third-party request in a TUNNEL (its reply goes back the same way, to its
-    system and component); another payload type is not ours to take."""
-    if msg.payload_type != TUNNEL_PAYLOAD_TYPE:
-        return False
+    system and component), posted with its sender as the source, so the helm can check the
+    client it claims is bound to that sender."""
     length = max(0, min(int(msg.payload_length), len(msg.payload)))
     text = bytes(msg.payload[:length]).decode("utf-8", "replace")
     who = text.partition(":")[0].strip()
-    bridge.state.guests[who] = (msg.get_srcSystem(), msg.get_srcComponent())
-    bridge.input.notify(REQUEST_VARIABLE, text)
+    system, component = msg.get_srcSystem(), msg.get_srcComponent()
+    bridge.state.guests[who] = (system, component)
+    bridge.bus.notify(REQUEST_VARIABLE, text, mavlink_source(system, component))
     return True
 
 
@@ -89,6 +91,39 @@ TO_COMPANION: dict[str, CompanionHandler] = {
     "COMMAND_LONG": on_command_long,
     "TUNNEL": on_tunnel,
 }
+
+
+def _for_companion(bridge: MavlinkBridge, msg: Msg, kind: str) -> bool:
+    """Addressed to the companion, and a message it takes (a TUNNEL of another payload
+    type is someone else's)."""
+    config = bridge.config
+    if kind not in TO_COMPANION or (msg.target_system, msg.target_component) != \
+            (config.system_id, config.component_id):
+        return False
+    return kind != "TUNNEL" or msg.payload_type == TUNNEL_PAYLOAD_TYPE
+
+
+def _command_name(msg: Msg, kind: str) -> str:
+    if kind == "TUNNEL":
+        return "third-party request"
+    entry = mavlink.enums["MAV_CMD"].get(msg.command)
+    name = entry.name.removeprefix("MAV_CMD_") if entry is not None else str(msg.command)
+    return f"COMMAND_LONG {name}"
+
+
+def admitted(bridge: MavlinkBridge, msg: Msg, kind: str, now: float) -> bool:
+    """The sender check for a message to the companion: True if its sender may give it;
+    otherwise it is refused (COMMAND_ACK DENIED for a command, nothing for a TUNNEL),
+    counted, and said (rate-limited) naming the sender."""
+    sender = SenderId(msg.get_srcSystem(), msg.get_srcComponent())
+    why = bridge.authorize(sender, msg.get_signed(), _command_name(msg, kind), now,
+                           guest=kind == "TUNNEL")
+    if why is None:
+        return True
+    if kind == "COMMAND_LONG":
+        bridge.link.mav.command_ack_send(msg.command, mavlink.MAV_RESULT_DENIED, 0, 0,
+                                         sender.system, sender.component)
+    return False
 
 
 # -- from the autopilot -------------------------------------------------------------------
@@ -238,6 +273,8 @@ def on_param_value(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     name = msg.param_id.rstrip("\x00") if isinstance(msg.param_id, str) else ""
     if name and math.isfinite(msg.param_value):
         bridge.state.view.params[name] = float(msg.param_value)
+        if name in GCS_SYSID_PARAMS and 1 <= msg.param_value <= 255:
+            bridge.gate.gcs_sysid = int(msg.param_value)
 
 
 def on_rc_channels(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
@@ -284,20 +321,66 @@ FROM_AUTOPILOT: dict[str, Handler] = {
 
 # -- routing ------------------------------------------------------------------------------
 
+def _autopilot_heartbeat(bridge: MavlinkBridge, msg: Msg) -> None:
+    """Note whether the autopilot signs; with ``SetupSigning``, give an autopilot that sends
+    no signature at all the key (once a connection), as MAVProxy's ``signing setup`` does. One
+    signed with another key is left alone: the key is the operator's to change."""
+    state = bridge.state
+    how = signature(msg)
+    state.signed = how == "valid"
+    if bridge.gate.require_signing and not state.signed:
+        _warn_unsigned(bridge, how)
+    if how != "none" or not bridge.signing or not bridge.config.setup_signing \
+            or state.signing_sent:
+        return
+    config = bridge.config
+    mav = bridge.link.mav
+    assert mav.signing.secret_key is not None
+    state.signing_sent = True
+    send_setup_signing(mav, (config.target_system, config.target_component),
+                       mav.signing.secret_key)
+    bridge.input.notify("MAVLINK_LINK", "the autopilot is unsigned: signing key sent to it "
+                        "(SETUP_SIGNING)")
+
+
+UNSIGNED_HEARTBEATS_WARNED = 3
+"""Unsigned autopilot HEARTBEATs (on one connection) before the operator is told why the
+helm hears nothing: time for SETUP_SIGNING to take effect first."""
+
+
+def _warn_unsigned(bridge: MavlinkBridge, how: str) -> None:
+    """RequireSigning and an autopilot that does not sign with the key: everything it says
+    is ignored, so the helm stays offline; say so once a connection, with the remedy."""
+    state = bridge.state
+    state.unsigned_heartbeats += 1
+    if state.unsigned_heartbeats != UNSIGNED_HEARTBEATS_WARNED:
+        return
+    what = "not signed" if how == "none" else "not validly signed (another key?)"
+    bridge.input.notify("MAVLINK_WARNING", f"the autopilot's packets are {what}: all are "
+                        "ignored, as RequireSigning is on; set the autopilot up (SetupSigning "
+                        "= true, or MAVProxy `signing setup`) with the key file's passphrase")
+
+
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     """Route one message heard at ``now`` to its handler."""
     kind = msg.get_type()
     config = bridge.config
     src = (msg.get_srcSystem(), msg.get_srcComponent())
+    if _for_companion(bridge, msg, kind):
+        if admitted(bridge, msg, kind, now):
+            TO_COMPANION[kind](bridge, msg)
+        return
+    from_autopilot = src == (config.target_system, config.target_component)
+    if from_autopilot and kind == "HEARTBEAT":
+        _autopilot_heartbeat(bridge, msg)
+    if bridge.gate.require_signing and not msg.get_signed():
+        bridge.unsigned_ignored += 1
+        return
     if kind == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GCS \
             and src != (config.system_id, config.component_id):
         bridge.state.gcs_heard_at = now
         return
-    to_companion = TO_COMPANION.get(kind)
-    if to_companion is not None and (msg.target_system, msg.target_component) == \
-            (config.system_id, config.component_id) and to_companion(bridge, msg):
-        return
-    if src != (config.target_system, config.target_component):
+    if not from_autopilot:
         return
     bridge.state.heard.add(kind)
     time_boot_ms = getattr(msg, "time_boot_ms", None)

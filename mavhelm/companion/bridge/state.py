@@ -25,6 +25,12 @@ class AutopilotState:
     """When a ground station's HEARTBEAT was last heard (ArduPilot forwards them)."""
     streams_acked: bool = False
     warned_far: bool = False
+    signed: bool | None = None
+    """Whether the autopilot's latest HEARTBEAT was validly signed (None: none heard)."""
+    signing_sent: bool = False
+    """SETUP_SIGNING has been sent on this connection."""
+    unsigned_heartbeats: int = 0
+    """The autopilot's HEARTBEATs without a valid signature on this connection."""
     guests: dict[str, tuple[int, int]] = field(default_factory=dict)
     """job@client → (system, component) of guests that asked over MAVLink."""
 
@@ -33,4 +39,7 @@ class AutopilotState:
         self.last_heartbeat = None
         self.mode = None
         self.armed = False
+        self.signed = None
+        self.signing_sent = False
+        self.unsigned_heartbeats = 0
         self.view = AutopilotView()

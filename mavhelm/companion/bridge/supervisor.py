@@ -126,6 +126,8 @@ class LinkSupervisor:
                        if n not in wanted and n not in GCS_SYSID_PARAMS]
             if any(n in params for n in GCS_SYSID_PARAMS):
                 wanted = [n for n in wanted if n not in GCS_SYSID_PARAMS]
+        if bridge.gate.needs_gcs_sysid:
+            wanted += [n for n in GCS_SYSID_PARAMS if n not in wanted]
         return wanted
 
     def request_params(self, now: float) -> None:

@@ -24,6 +24,7 @@ from mavhelm.companion.remote.state import (
     RemoteState,
 )
 from mavhelm.companion.remote.view import render
+from mavhelm.companion.signing import KeyFileError, enable_signing, read_key
 
 
 def parse_ids(text: str) -> tuple[int, int]:
@@ -111,6 +112,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--companion", type=parse_ids, default=(1, COMPANION_COMPONENT),
                         metavar="SYS:COMP",
                         help="the companion that takes RESTART_HELM (default 1:191)")
+    parser.add_argument("--key-file", default=None,
+                        help="sign what this console sends (MAVLink 2 signing) with the "
+                             "passphrase in this file (chmod 600); see docs/security.md")
 
 
 def _send(link: AutopilotLink, messages: list[Message]) -> None:
@@ -280,6 +284,12 @@ def run(args: argparse.Namespace) -> int:
     state = RemoteState(target=target, companion=companion, url=args.connect,
                         sysid=args.sysid, compid=args.compid, now=time.monotonic())
     link = AutopilotLink(args.connect, args.baud, args.sysid, args.compid, *target)
+    if args.key_file is not None:
+        try:
+            enable_signing(link.mav, read_key(args.key_file))
+        except KeyFileError as exc:
+            print(f"mavhelm remote: {exc}", file=sys.stderr)
+            return 2
     stdin_fd, out_fd = sys.stdin.fileno(), sys.stdout.fileno()
     write = _writer(out_fd)
     session = Session(state, link, Screen(write, os.isatty(out_fd)), stdin_fd)

@@ -61,6 +61,9 @@ def _helm(s: RemoteState) -> list[str]:
         lines.append(f"nav        NAVIGATION FAILURE: {h.nav_failure}")
     elif h.nav_lost:
         lines.append(f"nav        lost (no source): {', '.join(h.nav_lost)}")
+    if h.refused:
+        lines.append(f"refused    {h.refused} command{'s' if h.refused != 1 else ''} from "
+                     "senders not allowed or not signed")
     if s.mission_ended:
         lines.append(f"           {s.mission_ended}")
     return lines
