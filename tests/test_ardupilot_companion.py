@@ -52,10 +52,15 @@ pytestmark = pytest.mark.slow
 
 DEMO = Path(__file__).resolve().parent.parent / "examples" / "demo.moos"
 SPEEDUP = 20
+DEMO_SPEEDUP = 10
+"""The whole demo, which asserts no false "link lost": the companion's clock extrapolates the
+autopilot's rate between stamps, so a simulator stalled by a loaded machine for LinkTimeOut /
+speed-up of wall time (0.15 s at x20, seen beside two busy processes) looks like a silent link."""
 TICK_S = 0.1                 # the demo's pHelm AppTick = 10
 LINK_TIMEOUT_S = 3.0         # iMAVLink LinkTimeOut (default)
 MS = 0.0015                  # the .alog's time stamps are rounded to the millisecond
 LINK_TEST_SPEEDUP = 10       # see test_broken_link_...
+NO_STALL_S = 1.5             # autopilot s: half LinkTimeOut, far below a blocked connect
 CUT_S = 6.0                  # autopilot seconds the proxy refuses the companion
 BLIP_S = 0.5                 # and a blip, shorter than the companion's first retry (1 s)
 STREAM_HZ = 4                # the operator's telemetry (SIMSTATE truth), autopilot hertz
@@ -312,7 +317,7 @@ class LinkProxy:
 # -- the tests ---------------------------------------------------------------------------------
 
 def test_demo_mission_end_to_end(real_sitl, tmp_path) -> None:
-    sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
+    sitl = real_sitl(model="motorboat", speedup=DEMO_SPEEDUP)
     with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
         sitl.wait_listening(sitl.ports.serial1)        # opens once SERIAL0 has a client
         comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion")
@@ -542,9 +547,13 @@ def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path
     # (the .alog keeps milliseconds: MS of slack)
     assert 0.0 <= off_time - hb_time <= LINK_TIMEOUT_S + TICK_S + MS
     assert ticks[i_off] <= ticks[i_lost], "offline in the tick the connection was lost"
-    # kept ticking at AppTick through the outage
+    # kept ticking at AppTick through the outage: the median gap is the tick, and no tick
+    # waited on the link (a blocking reconnect would stall for its 5 s time-out, 50 autopilot
+    # s at x10); the bound on the longest gap leaves room for a loaded machine's scheduling
+    # (0.6 autopilot s = 60 ms of wall time seen beside two busy processes)
     assert (restore_boot - cut_boot) / 1000 >= 5.0 and down[-1] - down[0] >= 5.0
-    assert max(gaps) <= 2 * TICK_S + MS, gaps
+    assert statistics.median(gaps) <= TICK_S + MS, gaps
+    assert max(gaps) <= NO_STALL_S, gaps
     # the new connection: no actuation before the autopilot's HEARTBEAT passed on it
     assert second.heartbeat_at is not None
     assert "SET_ATTITUDE_TARGET" not in second.sent_before_heartbeat()

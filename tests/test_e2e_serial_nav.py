@@ -5,7 +5,6 @@ NAV_* ahead of the autopilot's own (spec 2.1), all as separate processes on the 
 from __future__ import annotations
 
 import signal
-import subprocess
 import sys
 import time
 
@@ -14,6 +13,8 @@ import pytest
 from mavhelm.companion.alog import read_alog
 from tests.support.interop_helpers import SimProcess
 from tests.support.mission import block, mission_text
+from tests.support.processes import ConsoleProcess
+from tests.support.waiting import wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -33,15 +34,17 @@ def test_serial_gps_and_heading_feed_nav_through_mavhelm_run(tmp_path):
         mission = tmp_path / "serial.moos"
         mission.write_text(serial_mission(sim.ports[1], paths["nmea_gps"], paths["heading"]))
         logs = tmp_path / "logs"
-        proc = subprocess.Popen([sys.executable, "-m", "mavhelm.cli", "run", str(mission),
-                                 "--log-dir", str(logs)], stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
+        comp = ConsoleProcess([sys.executable, "-m", "mavhelm.cli", "run", str(mission),
+                               "--log-dir", str(logs)])
         try:
-            time.sleep(6.0)  # the GPS speaks at 1 Hz, the compass at 10 Hz
+            # the companion's start-up takes seconds on a loaded machine: wait until pNav has
+            # taken both instruments, then give them a few seconds (GPS 1 Hz, compass 10 Hz)
+            wait_for(lambda: comp.find("nav X from SGPS") and comp.find("nav HEADING from HDG"),
+                     60.0, "pNav taking the serial GPS and compass", comp.output)
+            time.sleep(4.0)
         finally:
-            proc.send_signal(signal.SIGTERM)
-            out, _ = proc.communicate(timeout=30)
-        assert proc.returncode == 0, out
+            code = comp.stop(signal.SIGTERM, grace_s=30.0)
+        assert code == 0, comp.output()
     log = read_alog(next(logs.glob("*.alog")))
     sources = {m.name: m.string for m in log if m.name.endswith("_SOURCE")}
     assert sources["NAV_X_SOURCE"] == "SGPS" and sources["NAV_HEADING_SOURCE"] == "HDG"
