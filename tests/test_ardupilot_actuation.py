@@ -38,7 +38,9 @@ from tests.support.mission import mission_text
 
 pytestmark = pytest.mark.slow
 
-SPEEDUP = 20
+SPEEDUP = 10
+"""Not faster: a loaded machine's stall of the companion lasts speed-up times longer in
+autopilot seconds, and the override must be in effect 1 autopilot s after the switch."""
 STREAM_HZ = 2                # the operator's telemetry (SIMSTATE truth), autopilot hertz
 RC_HZ = 10                   # RC_CHANNELS and SERVO_OUTPUT_RAW to the operator, autopilot hertz
 SWITCH_REFRESH_MS = 250      # the operator's RC7 override is resent this often (autopilot ms)

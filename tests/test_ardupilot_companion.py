@@ -51,11 +51,11 @@ from tests.support.ardupilot import (
 pytestmark = pytest.mark.slow
 
 DEMO = Path(__file__).resolve().parent.parent / "examples" / "demo.moos"
-SPEEDUP = 20
-DEMO_SPEEDUP = 10
-"""The whole demo, which asserts no false "link lost": the companion's clock extrapolates the
-autopilot's rate between stamps, so a simulator stalled by a loaded machine for LinkTimeOut /
-speed-up of wall time (0.15 s at x20, seen beside two busy processes) looks like a silent link."""
+SPEEDUP = 10
+"""Not faster: these tests assert timings in autopilot seconds, and a loaded machine's stall of
+the simulator or the companion lasts speed-up times longer in them. The companion's clock
+extrapolates the autopilot's rate between stamps, so at x20 a 0.15 s stall of the simulator
+read as a 3 s silent link (a false "link lost"), and the 10 Hz helm fell behind its AppTick."""
 TICK_S = 0.1                 # the demo's pHelm AppTick = 10
 LINK_TIMEOUT_S = 3.0         # iMAVLink LinkTimeOut (default)
 MS = 0.0015                  # the .alog's time stamps are rounded to the millisecond
@@ -317,7 +317,7 @@ class LinkProxy:
 # -- the tests ---------------------------------------------------------------------------------
 
 def test_demo_mission_end_to_end(real_sitl, tmp_path) -> None:
-    sitl = real_sitl(model="motorboat", speedup=DEMO_SPEEDUP)
+    sitl = real_sitl(model="motorboat", speedup=SPEEDUP)
     with RealOperator(sitl.ports.serial0).wait_first_heartbeat(STREAM_HZ) as op:
         sitl.wait_listening(sitl.ports.serial1)        # opens once SERIAL0 has a client
         comp = CompanionProcess(DEMO, sitl.ports.serial1, tmp_path / "companion")
@@ -441,7 +441,7 @@ def test_manual_mid_mission_stops_actuation_within_one_tick(real_sitl, tmp_path)
     assert not later, [(log[i].name, log[i].time - t_manual) for i in later]
     assert not same_tick                        # the bridge documents: stopped in that same tick
     assert after and ticks[after[0]] - ticks[i_on] <= 1
-    assert len(after) >= 2 * 20                 # >= 20 commands in the 3 s after the hand-back
+    assert len(after) >= 2 * 10                 # driving again: >= 10 commands in the 3 s after
 
 
 def test_broken_link_goes_offline_keeps_ticking_and_recovers(real_sitl, tmp_path) -> None:
