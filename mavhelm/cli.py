@@ -16,6 +16,8 @@ def _run(args: argparse.Namespace) -> int:
     from mavhelm.companion.companion import Companion, Plan
     from mavhelm.core.clock import AutopilotClock, WallClock
 
+    if args.web_control and args.web is None:
+        args.usage_error("--web-control needs --web [HOST:]PORT")
     clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
     plan = Plan.from_mission(args.mission, clock, connect=args.connect)
     log_dir = Path(args.log_dir or mission_log_dir(plan.mission))
@@ -29,6 +31,16 @@ def _run(args: argparse.Namespace) -> int:
                                 echo=lambda line: print(line, flush=True))
     print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
           flush=True)
+    web = None
+    if args.web is not None:
+        from mavhelm.companion.web.view import start_web
+
+        try:
+            web = start_web(companion, args.web, control=args.web_control,
+                            echo=lambda line: print(line, flush=True))
+        except OSError as exc:
+            companion.close()
+            raise SettingError("--web", f"the web view on {args.web}", exc) from None
     next_tick = clock.now()
     try:
         while True:
@@ -43,6 +55,8 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("mavhelm: stopped", flush=True)
     finally:
+        if web is not None:
+            web.stop()
         companion.close()
     return 0
 
@@ -146,6 +160,17 @@ def _link_address(text: str) -> str:
     return text
 
 
+def _web_address(text: str) -> str:
+    """``--web [HOST:]PORT``."""
+    from mavhelm.companion.web.server import parse_address
+
+    try:
+        parse_address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def _system_component(text: str) -> tuple[int, int]:
     """``SYSTEM:COMPONENT`` (``--target``, ``--source``)."""
     parts = text.split(":")
@@ -215,7 +240,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--clock", choices=["wall", "autopilot"], default="wall",
                      help="pace the helm on the wall clock (a real vehicle) or on the "
                           "autopilot's time_boot_ms (a SITL run with --speedup)")
-    run.set_defaults(func=_run)
+    run.add_argument("--web", metavar="[HOST:]PORT", type=_web_address, default=None,
+                     help="serve the live map and helm state on this address (HOST defaults "
+                          "to 127.0.0.1: give 0.0.0.0 to reach it from another computer)")
+    run.add_argument("--web-control", action="store_true",
+                     help="with --web: add ALL STOP, hand back, restart helm and remote flags "
+                          "to the page, behind a token printed at start")
+    run.set_defaults(func=_run, usage_error=run.error)
 
     check = sub.add_parser("check", help="pre-flight checklist: connect, read the streams and "
                            "parameters the companion needs, say what is wrong and how to fix it")
