@@ -9,6 +9,7 @@ let track = [];
 let last = null;
 let view = { cx: 0, cy: 0, scale: 2 };   // pixels per metre
 let follow = true;
+window.mavhelmFrames = 0;   // frames drawn (tests read it)
 
 function el(tag, attrs, parent) {
   const e = document.createElementNS(NS, tag);
@@ -166,7 +167,9 @@ function drawPanels(f) {
   const link = $("link");
   link.textContent = s.link_up ? `link up (${f.link.connect})` : `link DOWN (${f.link.connect})`;
   link.className = s.link_up ? "good" : "bad";
-  text("clock", `t ${f.t.toFixed(1)} s`);
+  // the vehicle's wall clock (UTC), or seconds since start on a simulated clock
+  text("clock", f.t > 1e9 ? new Date(f.t * 1000).toISOString().slice(11, 21) + " UTC"
+    : `t+${f.t.toFixed(1)} s`);
   text("steering", s.owner ? `${s.owner} steers${s.goal ? ": " + s.goal : ""}` : "nobody steers");
   const body = $("tasks").tBodies[0]; clear(body);
   for (const t of f.running) {
@@ -230,6 +233,7 @@ function connect() {
     if (f.track.length) { track.push(...f.track); if (track.length > 5000) track.splice(0, track.length - 5000); drawTrack(); }
     last = f;
     drawFrame(f);
+    window.mavhelmFrames += 1;
     if (follow && f.poses.nav) {
       const svg = $("map"), w = svg.clientWidth, h = svg.clientHeight;
       const dx = (f.poses.nav.x - view.cx) * view.scale, dy = (f.poses.nav.y - view.cy) * view.scale;
