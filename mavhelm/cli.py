@@ -283,6 +283,13 @@ def build_parser() -> argparse.ArgumentParser:
     remote_console.add_arguments(remote)
     remote.set_defaults(func=remote_console.run)
 
+    from mavhelm.companion import fleet_console
+
+    view = sub.add_parser("view", help="several vehicles on one screen: every MAV_SYSID heard "
+                          "on a ground station's link, with its mode and the helm's task")
+    fleet_console.add_arguments(view)
+    view.set_defaults(func=fleet_console.run, usage_error=view.error)
+
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)
     sim.set_defaults(func=_sim)
