@@ -28,30 +28,15 @@ def _run(args: argparse.Namespace) -> int:
         raise SettingError(setting, f"the log folder {str(log_dir)!r}", exc) from None
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
     companion = Companion.build(plan.mission, clock, connect=args.connect, alog_path=alog,
-                                echo=lambda line: print(line, flush=True))
-    print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
-          flush=True)
+                                echo=lambda line: print(line, flush=True),
+                                tlog_path=alog.with_suffix(".tlog"))
     web = None
-    if args.web is not None:
-        from mavhelm.companion.web.view import start_web
-
-        try:
-            web = start_web(companion, args.web, control=args.web_control,
-                            echo=lambda line: print(line, flush=True))
-        except OSError as exc:
-            companion.close()
-            raise SettingError("--web", f"the web view on {args.web}", exc) from None
-    next_tick = clock.now()
     try:
-        while True:
-            companion.tick(clock.now())
-            if args.exit_at_end and companion.mission_over():
-                print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
-                break
-            next_tick += companion.tick_period
-            if next_tick < clock.now() - companion.tick_period:
-                next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
-            clock.sleep_until(next_tick)
+        print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to "
+              f"{alog} (and its MAVLink traffic to {alog.with_suffix('.tlog').name})",
+              flush=True)
+        web = _serve_web(companion, args)
+        _tick_until_stopped(companion, clock, args.exit_at_end)
     except KeyboardInterrupt:
         print("mavhelm: stopped", flush=True)
     finally:
@@ -59,6 +44,32 @@ def _run(args: argparse.Namespace) -> int:
             web.stop()
         companion.close()
     return 0
+
+
+def _serve_web(companion, args: argparse.Namespace):
+    """``--web``: the live page (None without it)."""
+    if args.web is None:
+        return None
+    from mavhelm.companion.web.view import start_web
+
+    try:
+        return start_web(companion, args.web, control=args.web_control,
+                         echo=lambda line: print(line, flush=True))
+    except OSError as exc:
+        raise SettingError("--web", f"the web view on {args.web}", exc) from None
+
+
+def _tick_until_stopped(companion, clock, exit_at_end: bool) -> None:
+    next_tick = clock.now()
+    while True:
+        companion.tick(clock.now())
+        if exit_at_end and companion.mission_over():
+            print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
+            return
+        next_tick += companion.tick_period
+        if next_tick < clock.now() - companion.tick_period:
+            next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
+        clock.sleep_until(next_tick)
 
 
 def _stop(signum, frame) -> None:

@@ -49,7 +49,7 @@ def _xy(p: Iterable[float | None]) -> list[float]:
     return [round(float(x or 0.0), 2), round(float(y or 0.0), 2)]
 
 
-def _task_shapes(task: Task) -> list[Shape]:  # noqa: C901 - one branch per task type
+def _task_shapes(task: Task) -> list[Shape]:
     """The geometry one task flies or guards, in metres east and north of the origin."""
     name = task.name
     if isinstance(task, GoToWayPoint):
