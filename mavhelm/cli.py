@@ -294,6 +294,15 @@ def build_parser() -> argparse.ArgumentParser:
     remote_console.add_arguments(remote)
     remote.set_defaults(func=remote_console.run)
 
+    from mavhelm.companion import log_plot
+
+    log = sub.add_parser("log", help="tools for a run's logs")
+    log_sub = log.add_subparsers(dest="log_command", required=True)
+    plot = log_sub.add_parser("plot", help="track, who steered, heading (unwrapped) and nav "
+                              "error of a run's .alog or .tlog, as a PNG")
+    log_plot.add_arguments(plot)
+    plot.set_defaults(func=log_plot.run)
+
     from mavhelm.companion import fleet_console
 
     view = sub.add_parser("view", help="several vehicles on one screen: every MAV_SYSID heard "

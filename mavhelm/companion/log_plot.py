@@ -1,0 +1,203 @@
+"""``mavhelm log plot RUN``: a run's track, who steered, heading and nav error in one PNG, from
+the companion's ``.alog`` or the ``.tlog`` of its MAVLink traffic.
+
+A heading is drawn unwrapped (a boat holding north crosses 0/360 every few seconds; drawn raw
+that is a wall of vertical lines), so a turn reads as a slope and a steady course as a flat
+line. The nav error (pNav's position against the simulator's truth) is drawn when the log has
+truth (``TRUTH_X``/``TRUTH_Y``, a simulated run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pymavlink import mavutil
+
+from mavhelm.companion.alog import read_alog
+from mavhelm.companion.status import Goal, Snapshot, TaskEnded
+from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, decode
+
+Series = list[tuple[float, float]]
+
+
+@dataclass
+class RunSeries:
+    """What the plot needs, each as (time, value) in the log's time."""
+
+    x: Series = field(default_factory=list)
+    y: Series = field(default_factory=list)
+    heading: Series = field(default_factory=list)
+    truth_x: Series = field(default_factory=list)
+    truth_y: Series = field(default_factory=list)
+    owners: list[tuple[float, str]] = field(default_factory=list)
+    """(time, task) whenever the rudder changes hands ("none": nobody)."""
+
+    def add_owner(self, t: float, owner: str) -> None:
+        owner = owner or "none"
+        if not self.owners or self.owners[-1][1] != owner:
+            self.owners.append((t, owner))
+
+
+ALOG_SERIES = {"NAV_X": "x", "NAV_Y": "y", "NAV_HEADING": "heading", "TRUTH_X": "truth_x",
+               "TRUTH_Y": "truth_y"}
+TLOG_SERIES = {"NAV_X": "x", "NAV_Y": "y", "NAV_HDG": "heading"}
+"""The companion's NAMED_VALUE_FLOATs (``bridge/output.py``)."""
+
+
+def from_alog(path: Path) -> RunSeries:
+    run = RunSeries()
+    for m in read_alog(path):
+        attr = ALOG_SERIES.get(m.name)
+        if attr is not None and m.is_double and math.isfinite(m.double):
+            getattr(run, attr).append((m.time, m.double))
+        elif m.name == "HELM_RUDDER_OWNER":
+            run.add_owner(m.time, "" if m.string == "none" else m.string)
+    return run
+
+
+def from_tlog(path: Path) -> RunSeries:
+    """The companion's own frames in a .tlog: its NAMED_VALUE_FLOATs and its typed status."""
+    run = RunSeries()
+    log = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
+    try:
+        while (msg := log.recv_match(type=["NAMED_VALUE_FLOAT", "TUNNEL"])) is not None:
+            t = float(msg._timestamp)
+            if msg.get_type() == "NAMED_VALUE_FLOAT":
+                attr = TLOG_SERIES.get(str(msg.name).rstrip("\x00"))
+                if attr is not None and math.isfinite(msg.value):
+                    getattr(run, attr).append((t, float(msg.value)))
+                continue
+            if msg.payload_type != STATUS_PAYLOAD_TYPE:
+                continue
+            event = decode(bytes(msg.payload[:max(0, min(msg.payload_length, 128))]))
+            if isinstance(event, (Goal, Snapshot)):
+                run.add_owner(t, event.owner)
+            elif isinstance(event, TaskEnded) and run.owners and run.owners[-1][1] == event.name:
+                run.add_owner(t, "")
+    finally:
+        log.close()
+    return run
+
+
+def read_run(path: Path) -> RunSeries:
+    return from_tlog(path) if path.suffix == ".tlog" else from_alog(path)
+
+
+def find_log(run: Path) -> Path:
+    """RUN itself if it is a log, else the newest .alog (or .tlog) in the folder."""
+    if run.is_file():
+        return run
+    if not run.is_dir():
+        raise FileNotFoundError(f"no such run folder or log: {run}")
+    for pattern in ("*.alog", "*.tlog"):
+        logs = sorted(run.glob(pattern), key=lambda p: p.stat().st_mtime)
+        if logs:
+            return logs[-1]
+    raise FileNotFoundError(f"no .alog or .tlog in {run}")
+
+
+def unwrapped(degrees: list[float]) -> np.ndarray:
+    """Headings without the 0/360 jumps, starting in [0, 360)."""
+    if not degrees:
+        return np.array([])
+    return np.degrees(np.unwrap(np.radians(np.asarray(degrees) % 360.0)))
+
+
+def _pairs(a: Series, b: Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x and y posted together (same time stamp): times, xs, ys."""
+    ys = dict(b)
+    joined = [(t, v, ys[t]) for t, v in a if t in ys]
+    if not joined:
+        return np.array([]), np.array([]), np.array([])
+    t, x, y = (np.asarray(c) for c in zip(*joined, strict=True))
+    return t, x, y
+
+
+def nav_error(run: RunSeries) -> tuple[np.ndarray, np.ndarray]:
+    """(time, metres) of pNav's position from the truth, at each nav fix."""
+    t, x, y = _pairs(run.x, run.y)
+    tt, tx, ty = _pairs(run.truth_x, run.truth_y)
+    if t.size == 0 or tt.size < 2:
+        return np.array([]), np.array([])
+    inside = (t >= tt[0]) & (t <= tt[-1])
+    t, x, y = t[inside], x[inside], y[inside]
+    return t, np.hypot(x - np.interp(t, tt, tx), y - np.interp(t, tt, ty))
+
+
+def plot(run: RunSeries, out: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, x, y = _pairs(run.x, run.y)
+    start = min((s[0][0] for s in (run.x, run.heading) if s), default=0.0)
+    names = list(dict.fromkeys(name for _, name in run.owners if name != "none"))
+    colours = {name: plt.cm.tab10(i % 10) for i, name in enumerate(names)}
+    err_t, err = nav_error(run)
+    rows = 3 if err.size else 2
+    fig = plt.figure(figsize=(14, 7))
+    ax = fig.add_subplot(1, 2, 1)
+    ax.plot(x, y, color="0.75", lw=1)
+    owner_times = np.asarray([w for w, _ in run.owners])
+    owner_of = np.searchsorted(owner_times, t, side="right") - 1 if t.size else np.array([])
+    for name in names:
+        held = np.asarray([i >= 0 and run.owners[i][1] == name for i in owner_of])
+        if held.any():
+            ax.plot(np.where(held, x, np.nan), np.where(held, y, np.nan), lw=2.5,
+                    color=colours[name], label=f"rudder: {name}")
+    _, tx, ty = _pairs(run.truth_x, run.truth_y)
+    if tx.size:
+        ax.plot(tx, ty, color="k", lw=0.6, ls=":", label="truth")
+    if x.size:
+        ax.plot(x[0], y[0], "go", label="start")
+        ax.plot(x[-1], y[-1], "ks", label="end")
+    ax.set(xlabel="X east (m)", ylabel="Y north (m)", title=title)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax_h = fig.add_subplot(rows, 2, 2)
+    ht = np.asarray([s[0] for s in run.heading]) - start
+    ax_h.plot(ht, unwrapped([s[1] for s in run.heading]), color="0.2", lw=1)
+    for when, name in run.owners:
+        ax_h.axvline(when - start, color=colours.get(name, "0.6"), ls="--", lw=0.8)
+    ax_h.set(ylabel="heading (deg, unwrapped)", title="NAV heading; dashed: rudder changes hands")
+    ax_h.grid(True, alpha=0.3)
+    ax_o = fig.add_subplot(rows, 2, 4)
+    for (when, name), end in zip(run.owners, [*owner_times[1:], max(ht.max(initial=0) + start,
+                                                                     owner_times.max(initial=0))],
+                                 strict=True):
+        if name != "none":
+            ax_o.barh(name, end - when, left=when - start, color=colours[name])
+    ax_o.set(ylabel="task steering", xlabel="time (s)" if rows == 2 else "")
+    ax_o.grid(True, alpha=0.3)
+    if err.size:
+        ax_e = fig.add_subplot(rows, 2, 6)
+        ax_e.plot(err_t - start, err, color="tab:red", lw=1)
+        ax_e.set(xlabel="time (s)", ylabel="nav error (m)")
+        ax_e.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("run", help="a run folder (its newest .alog, else .tlog) or a log file")
+    parser.add_argument("--out", default=None,
+                        help="the PNG to write (default: beside the log, <log>_plot.png)")
+
+
+def run(args: argparse.Namespace) -> int:
+    log = find_log(Path(args.run))
+    series = read_run(log)
+    if not series.x:
+        print(f"mavhelm log plot: {log} has no NAV_X/NAV_Y to draw")
+        return 1
+    out = Path(args.out) if args.out else log.with_name(f"{log.stem}_plot.png")
+    plot(series, out, f"{log.name}: track, coloured by the task steering")
+    print(f"mavhelm log plot: {out}")
+    return 0
