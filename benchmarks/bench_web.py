@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mavhelm.companion.web.server import WebServer
+from mavhelm.companion.web.server import WebProcess
 from mavhelm.companion.web.view import WebView
 from mavhelm.demo.harness import SimulatedRun
 
@@ -57,14 +57,13 @@ def run_once(web: bool) -> tuple[np.ndarray, np.ndarray, int, int]:
         run.companion.community.profile = True
         server = reader = None
         if web:
-            server = WebServer("127.0.0.1", 0)
+            server = WebProcess("127.0.0.1", 0)
             server.start()
             run.companion.community.apps.append(WebView(run.companion, server))
             reader = subprocess.Popen([sys.executable, "-m", "benchmarks.bench_web", "--client",
                                        f"ws://127.0.0.1:{server.port}/ws"],
                                       stdout=subprocess.DEVNULL)
-            while not server.pages:
-                time.sleep(0.05)
+            time.sleep(2.0)  # the reader connects
         try:
             run.hand_over()
             first = len(run.companion_tick_seconds)
@@ -81,7 +80,7 @@ def run_once(web: bool) -> tuple[np.ndarray, np.ndarray, int, int]:
         ticks = np.asarray(run.companion_tick_seconds[first:])
         own = np.asarray(run.companion.community.app_seconds.get("iWeb", [0.0])[first:] or [0.0])
         return (ticks, own, (server.sent if server else 0),
-                (server.mailbox.dropped if server else 0))
+                (server.dropped if server else 0))
 
 
 def main() -> None:
@@ -95,8 +94,8 @@ def main() -> None:
         ticks, own, sent, dropped = run_once(web)
         results[web].append(ticks)
         extra = (f"\n      the view's own part of a tick: median {np.median(own) * 1e6:.1f} us, "
-                 f"p99 {np.percentile(own, 99) * 1e6:.1f} us; frames sent {sent}, dropped in "
-                 f"the mailbox {dropped}") if web else ""
+                 f"p99 {np.percentile(own, 99) * 1e6:.1f} us; frames sent {sent}, dropped "
+                 f"{dropped}") if web else ""
         print(f"  {'with' if web else 'without':7s} web: median {np.median(ticks) * 1e6:7.1f} us"
               f"   p99 {np.percentile(ticks, 99) * 1e6:7.1f} us   (n={ticks.size}){extra}",
               flush=True)

@@ -1,11 +1,14 @@
-"""The web view: its pieces alone (address, mailbox, actions, the picture's data), then the
-view on a companion and simulator in lockstep: frames, and the control actions refused without
-the token and obeyed with it."""
+"""The web view: its pieces alone (address, actions, the picture's data, the server process),
+then the view on a companion and simulator in lockstep: frames, and the control actions
+refused without the token and obeyed with it."""
 
 from __future__ import annotations
 
 import json
 import math
+import signal
+import socket
+import time
 import urllib.error
 import urllib.request
 
@@ -14,7 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.web import picture
 from mavhelm.companion.web.control import WEB_COMPONENT, Action, as_heard
-from mavhelm.companion.web.server import TOKEN_HEADER, Mailbox, WebServer, parse_address
+from mavhelm.companion.web.server import TOKEN_HEADER, WebProcess, parse_address
 from mavhelm.companion.web.view import WebView
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
@@ -22,6 +25,7 @@ from mavhelm.core.mission import load_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.tasks.helm import Helm
 from tests.support.mission import mission_text
+from tests.support.waiting import wait_for
 from tests.support.web_rig import TASKS
 
 
@@ -34,12 +38,40 @@ def test_address_is_loopback_unless_a_host_is_given():
             parse_address(bad)
 
 
-def test_the_mailbox_keeps_the_newest_frame_and_counts_the_dropped():
-    box = Mailbox()
-    box.offer({"n": 1})
-    box.offer({"n": 2})
-    assert box.take() == {"n": 2} and box.dropped == 1
-    assert box.take() is None
+def _state(server: WebProcess) -> dict:
+    with urllib.request.urlopen(server.url + "api/state", timeout=5) as answer:
+        return json.loads(answer.read())
+
+
+def test_offering_never_waits_and_drops_what_the_server_cannot_take():
+    server = WebProcess("127.0.0.1", 0)
+    server.start()
+    try:
+        assert server.offer({"type": "frame", "n": 1, "track": [[1.0, 2.0]]})
+        wait_for(lambda: _state(server).get("n") == 1, 10.0, "the frame at the server")
+        assert _state(server)["track_points"] == 1
+        server._proc.send_signal(signal.SIGSTOP)  # a server that takes nothing
+        try:
+            t0 = time.perf_counter()
+            for n in range(5000):
+                server.offer({"type": "frame", "n": n, "track": [], "pad": "x" * 500})
+            assert time.perf_counter() - t0 < 2.0 and server.dropped > 0
+        finally:
+            server._proc.send_signal(signal.SIGCONT)
+        with pytest.raises(ValueError):
+            server.offer({"bad": math.nan})
+    finally:
+        server.stop()
+    assert not server.offer({"n": 2})
+
+
+def test_an_address_in_use_is_refused_at_start():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        server = WebProcess("127.0.0.1", taken.getsockname()[1])
+        with pytest.raises(OSError, match="cannot listen"):
+            server.start()
 
 
 def test_actions_are_the_commands_a_ground_station_sends_the_companion():
@@ -100,7 +132,7 @@ def lockstep(tmp_path):
     path = tmp_path / "web.moos"
     path.write_text(mission_text(TASKS, overall_timeout=600))
     with SimulatedRun.start(path, record=["WEB_CONTROL_WARNING", "AP_MODE_REQUEST"]) as run:
-        server = WebServer("127.0.0.1", 0, token="sesame")
+        server = WebProcess("127.0.0.1", 0, token="sesame")
         server.start()
         run.companion.community.apps.append(WebView(run.companion, server))
         try:
@@ -113,14 +145,13 @@ def test_frames_show_the_helm_and_control_needs_the_token(lockstep):
     run, server = lockstep
     run.hand_over()
     run.run_for(25.0)
-    with urllib.request.urlopen(server.url + "api/state", timeout=5) as answer:
-        frame = json.loads(answer.read())
+    frame = wait_for(lambda: (f := _state(server)).get("t", 0) > 20 and f, 10.0, "a frame")
     assert frame["status"]["online"] is True
     assert frame["status"]["owner"] in ("OutLeg", "HomeLeg")
     assert frame["poses"]["nav"]["x"] > 5.0 and "truth" in frame["poses"]
     assert {s["task"] for s in frame["mission"]["shapes"]} == {"OutLeg", "HomeLeg", "Fence"}
     assert frame["goal"]["task"] == frame["status"]["owner"]
-    assert server.track and server.track[-1] != server.track[0]
+    assert frame["track_points"] > 10
     control = server.url + "api/control/allstop"
     assert _post(control, None) == 401
     assert _post(control, "wrong") == 403
@@ -138,10 +169,11 @@ def test_frames_show_the_helm_and_control_needs_the_token(lockstep):
 
 
 def test_without_control_every_action_is_refused(tmp_path):
-    server = WebServer("127.0.0.1", 0)
+    server = WebProcess("127.0.0.1", 0)
     server.start()
     try:
         assert _post(server.url + "api/control/allstop", "anything") == 403
-        assert server.actions.empty()
+        time.sleep(0.2)
+        assert server.actions() == []
     finally:
         server.stop()

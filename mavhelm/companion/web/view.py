@@ -1,13 +1,12 @@
 """The community app behind the web page: keeps the bus's latest values and the track, builds
-a frame ``FRAME_RATE_HZ`` times a second and drops it in the server's mailbox without waiting;
-takes the page's actions on the tick's own thread and hands them to the bridge as a ground
-station's commands.
+a frame ``FRAME_RATE_HZ`` times a second and hands it to the server process without waiting;
+takes the page's actions in the tick and gives them to the bridge as a ground station's
+commands.
 """
 
 from __future__ import annotations
 
 import math
-import queue
 import secrets
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -15,8 +14,8 @@ from typing import TYPE_CHECKING, Any
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.status import CompanionStatus
 from mavhelm.companion.web import picture
-from mavhelm.companion.web.control import WEB_COMPONENT, Action, as_heard
-from mavhelm.companion.web.server import WebServer, parse_address
+from mavhelm.companion.web.control import WEB_COMPONENT, as_heard
+from mavhelm.companion.web.server import WebProcess, parse_address
 from mavhelm.core.app import App
 from mavhelm.core.bus import Message
 
@@ -26,7 +25,6 @@ if TYPE_CHECKING:
 FRAME_RATE_HZ = 4.0
 TRACK_STEP_M = 0.5
 """A new track point once the vehicle has moved this far."""
-ACTIONS_PER_TICK = 4
 ACTION_VARIABLE = "WEB_CONTROL_WARNING"
 """Every action from the page, posted as an alert: logged, printed, sent as STATUSTEXT."""
 
@@ -37,7 +35,7 @@ class WebView(App):
 
     name = "iWeb"
 
-    def __init__(self, companion: Companion, server: WebServer,
+    def __init__(self, companion: Companion, server: WebProcess,
                  echo: Callable[[str], None] | None = None) -> None:
         super().__init__(companion.bus)
         self.companion = companion
@@ -76,7 +74,7 @@ class WebView(App):
         if self._next_frame is not None and now < self._next_frame:
             return
         self._next_frame = now + 1.0 / FRAME_RATE_HZ
-        self.server.mailbox.offer(self.frame(now))
+        self.server.offer(self.frame(now))
 
     def frame(self, now: float) -> dict[str, Any]:
         """What the page shows at ``now``; the mission's shapes only when the helm is new."""
@@ -98,7 +96,7 @@ class WebView(App):
             "link": {"packets": bridge.packets, "bad_packets": bridge.bad_packets,
                      "heartbeat_age": None if heartbeat is None else round(now - heartbeat, 1),
                      "connect": bridge.config.connect},
-            "web": {"dropped": self.server.mailbox.dropped, "skipped": self.server.skipped},
+            "web": {"dropped": self.server.dropped},
         }
         if helm is not self._helm:
             self._helm = helm
@@ -109,13 +107,9 @@ class WebView(App):
         return frame
 
     def _take_actions(self, now: float) -> None:
-        """The page's actions, at most ``ACTIONS_PER_TICK`` a tick, each announced and then
-        handed to the bridge as a COMMAND_LONG from the web console."""
-        for _ in range(ACTIONS_PER_TICK):
-            try:
-                action: Action = self.server.actions.get_nowait()
-            except queue.Empty:
-                return
+        """The page's actions, each announced and then handed to the bridge as a COMMAND_LONG
+        from the web console."""
+        for action in self.server.actions():
             self.notify(ACTION_VARIABLE, f"{action.describe()} from the web page "
                         f"({action.peer})")
             bridge = self.companion.bridge
@@ -130,13 +124,13 @@ def _shown(value: float | str) -> float | str:
 
 
 def start_web(companion: Companion, address: str, *, control: bool = False,
-              echo: Callable[[str], None] = print) -> WebServer:
+              echo: Callable[[str], None] = print) -> WebProcess:
     """Serve ``companion``'s picture on ``address`` (``[HOST:]PORT``), with the control
     actions behind a fresh token when ``control``; the view joins the community last, so a
     frame shows the tick that has just run."""
     host, port = parse_address(address)
     token = secrets.token_urlsafe(16) if control else None
-    server = WebServer(host, port, token=token)
+    server = WebProcess(host, port, token=token)
     server.start()
     companion.community.apps.append(WebView(companion, server))
     echo(f"mavhelm: web view on {server.url} (read-only)" if token is None else

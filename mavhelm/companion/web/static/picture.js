@@ -200,7 +200,7 @@ function drawPanels(f) {
   }
   const alerts = $("alerts"); clear(alerts);
   for (const a of f.alerts) { const li = document.createElement("li"); li.textContent = a; alerts.appendChild(li); }
-  text("webstats", `frames dropped ${f.web.dropped}, skipped ${f.web.skipped}; ` +
+  text("webstats", `frames dropped ${f.web.dropped}; ` +
     `packets ${f.link.packets} (bad ${f.link.bad_packets})`);
 }
 
