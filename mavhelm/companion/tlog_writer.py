@@ -21,7 +21,7 @@ class TlogWriter:
     """Appends frames to ``path``; ``record(frame)`` is the link's recorder."""
 
     def __init__(self, path: str | Path, clock: Callable[[], float] = time.time,
-                 on_error: Callable[[str], None] | None = None) -> None:
+                 on_error: Callable[[str], object] | None = None) -> None:
         self.path = Path(path)
         self.clock = clock
         self.on_error = on_error
