@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mavhelm.companion.log_plot import unwrapped
 from mavhelm.core.bus import Message
 from mavhelm.core.mission import Mission
 from mavhelm.sitl.truth import Truth
@@ -143,13 +144,13 @@ def plot_run(track: Sequence[Truth], messages: Sequence[Message], mission: Missi
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title or "Track (ground truth)")
-    ax_h.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
+    ax_h.plot([s.t for s in track], unwrapped([s.heading for s in track]), color="0.3", lw=1)
+    top = ax_h.get_ylim()[1]
     for when, name in owners:
         ax_h.axvline(when, color=colours.get(name, "k"), ls="--", lw=0.8)
-        ax_h.annotate(name, (when, 365), rotation=90, fontsize=7, va="top")
-    ax_h.set_ylim(0, 370)
+        ax_h.annotate(name, (when, top), rotation=90, fontsize=7, va="top")
     ax_h.set_xlabel("time (s)")
-    ax_h.set_ylabel("heading (deg)")
+    ax_h.set_ylabel("heading (deg, unwrapped: no jump at 0/360)")
     ax_h.set_title("Heading; dashed: rudder changes hands")
     ax_h.grid(True, alpha=0.3)
     fig.tight_layout()
