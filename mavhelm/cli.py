@@ -333,7 +333,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="run a mission end to end in the built-in simulator")
     demo.add_argument("mission", nargs="?", default=None,
-                      help="mission file (default: the demo mission shipped with mavhelm, examples/demo.moos in the repository)")
+                      help="mission file (default: the demo mission shipped with mavhelm, "
+                      "examples/demo.moos in the repository)")
     demo.add_argument("--out", default="runs", help="output folder (default runs/)")
     from mavhelm.sitl.models import DEFAULT_MODEL, MODEL_NAMES
 

@@ -41,6 +41,8 @@ ACTIONS_PER_TICK = 4
 MESSAGE_MAX = 1 << 20
 STATIC = ("index.html", "picture.js", "picture.css")
 DEFAULT_HOST = "127.0.0.1"
+NICE = 10
+"""The server process's niceness: below the companion, which wakes it with every frame."""
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -322,6 +324,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("fd", type=int)
     args = parser.parse_args(argv)
     channel = socket.socket(fileno=args.fd)
+    with contextlib.suppress(OSError):
+        os.nice(NICE)  # the helm first: a frame the tick wakes this process for must not
+        # preempt the tick on a busy computer
     config = json.loads(channel.recv(MESSAGE_MAX) or b"{}")
     if not config:
         return 1
