@@ -65,7 +65,7 @@ def from_tlog(path: Path) -> RunSeries:
     log = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
     try:
         while (msg := log.recv_match(type=["NAMED_VALUE_FLOAT", "TUNNEL"])) is not None:
-            t = float(msg._timestamp)
+            t = float(log.timestamp)  # the record's time stamp (set as each is read)
             if msg.get_type() == "NAMED_VALUE_FLOAT":
                 attr = TLOG_SERIES.get(str(msg.name).rstrip("\x00"))
                 if attr is not None and math.isfinite(msg.value):
