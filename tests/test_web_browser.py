@@ -1,7 +1,8 @@
 """The web page in real headless Chromium (Debian's chromium and chromium-driver, driven by
 Selenium) against ``mavhelm sim`` and ``mavhelm run --web``: the vehicle marker moves, the task
 that steers changes, frames come at 2 Hz or more, and the reason appears when the operator takes
-the vehicle back in MANUAL. A screenshot is saved beside the run's logs (``web.png``)."""
+the vehicle back in MANUAL. A screenshot is saved beside the run's logs (``web.png``); the
+run's .tlog is read back with pymavlink."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import shutil
 import time
 
 import pytest
+from pymavlink import mavutil
 
 from tests.support.waiting import wait_for
 from tests.support.web_rig import LiveRun
@@ -85,3 +87,9 @@ def test_the_page_follows_the_vehicle_and_the_helm(tmp_path, browser):
         shot = tmp_path / "web.png"
         browser.save_screenshot(str(shot))
         assert shot.stat().st_size > 10_000
+    # the same run's .tlog, closed with the companion, as a ground-station tool reads it
+    log = mavutil.mavlink_connection(str(next(tmp_path.glob("web_*.tlog"))))
+    kinds = set()
+    while (msg := log.recv_match()) is not None:
+        kinds.add((msg.get_srcComponent(), msg.get_type()))
+    assert {(1, "HEARTBEAT"), (191, "NAMED_VALUE_FLOAT"), (191, "TUNNEL")} <= kinds
