@@ -177,3 +177,16 @@ def test_without_control_every_action_is_refused(tmp_path):
         assert server.actions() == []
     finally:
         server.stop()
+
+
+def test_a_frame_that_cannot_be_made_is_reported_not_raised(lockstep):
+    run, server = lockstep
+    view = run.companion.community.apps[-1]
+    assert isinstance(view, WebView)
+    view.values["NAV_X"] = "broken"
+    view.frame = lambda now: {"t": math.nan}  # not JSON: as a bug in the picture would be
+    run.record.add("WEB_VIEW_WARNING")
+    run.run_for(2.0)
+    assert view.failures >= 4
+    said = [m.string for m in run.values("WEB_VIEW_WARNING")]
+    assert len(said) == 1 and "the helm carries on" in said[0]

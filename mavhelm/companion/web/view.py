@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 FRAME_RATE_HZ = 4.0
 TRACK_STEP_M = 0.5
 """A new track point once the vehicle has moved this far."""
+FAILURE_REPEAT_S = 10.0
 ACTION_VARIABLE = "WEB_CONTROL_WARNING"
 """Every action from the page, posted as an alert: logged, printed, sent as STATUSTEXT."""
 
@@ -46,6 +47,8 @@ class WebView(App):
         self._track_new: list[list[float]] = []
         self._last_point: tuple[float, float] | None = None
         self._next_frame: float | None = None
+        self.failures = 0
+        self._failure_said: float | None = None
         self._helm: object | None = None
         self._console = next((a for a in companion.community.apps
                               if isinstance(a, StatusConsole)), None)
@@ -74,7 +77,14 @@ class WebView(App):
         if self._next_frame is not None and now < self._next_frame:
             return
         self._next_frame = now + 1.0 / FRAME_RATE_HZ
-        self.server.offer(self.frame(now))
+        try:
+            self.server.offer(self.frame(now))
+        except Exception as exc:  # noqa: BLE001 - the picture must never stop the helm
+            self.failures += 1
+            if self._failure_said is None or now - self._failure_said >= FAILURE_REPEAT_S:
+                self._failure_said = now
+                self.notify("WEB_VIEW_WARNING", f"a frame could not be made "
+                            f"({type(exc).__name__}: {exc}); the helm carries on")
 
     def frame(self, now: float) -> dict[str, Any]:
         """What the page shows at ``now``; the mission's shapes only when the helm is new."""
