@@ -13,6 +13,7 @@ import argparse
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pymavlink import mavutil
@@ -128,58 +129,72 @@ def nav_error(run: RunSeries) -> tuple[np.ndarray, np.ndarray]:
     return t, np.hypot(x - np.interp(t, tt, tx), y - np.interp(t, tt, ty))
 
 
+def _track(ax, run: RunSeries, colours: dict[str, Any], title: str) -> None:
+    """The NAV track, each stretch coloured by the task that held the rudder, over the truth."""
+    t, x, y = _pairs(run.x, run.y)
+    ax.plot(x, y, color="0.75", lw=1)
+    owner_times = np.asarray([w for w, _ in run.owners])
+    owner_of = np.searchsorted(owner_times, t, side="right") - 1
+    for name, colour in colours.items():
+        held = np.asarray([i >= 0 and run.owners[i][1] == name for i in owner_of], dtype=bool)
+        if held.any():
+            ax.plot(np.where(held, x, np.nan), np.where(held, y, np.nan), lw=2.5,
+                    color=colour, label=f"rudder: {name}")
+    _, tx, ty = _pairs(run.truth_x, run.truth_y)
+    if tx.size:
+        ax.plot(tx, ty, color="k", lw=0.6, ls=":", label="truth")
+    ax.plot(x[0], y[0], "go", label="start")
+    ax.plot(x[-1], y[-1], "ks", label="end")
+    ax.set(xlabel="X east (m)", ylabel="Y north (m)", title=title)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+
+
+def _heading(ax, run: RunSeries, start: float, colours: dict[str, Any]) -> None:
+    times = np.asarray([s[0] for s in run.heading]) - start
+    ax.plot(times, unwrapped([s[1] for s in run.heading]), color="0.2", lw=1)
+    for when, name in run.owners:
+        ax.axvline(when - start, color=colours.get(name, "0.6"), ls="--", lw=0.8)
+    ax.set(ylabel="heading (deg, unwrapped)", title="NAV heading; dashed: rudder changes hands")
+    ax.grid(True, alpha=0.3)
+
+
+def _owners(ax, run: RunSeries, start: float, end: float, colours: dict[str, Any]) -> None:
+    """One bar per stretch a task held the rudder."""
+    ends = [when for when, _ in run.owners[1:]] + [max(end, run.owners[-1][0])]
+    for (when, name), until in zip(run.owners, ends, strict=True):
+        if name in colours:
+            ax.barh(name, until - when, left=when - start, color=colours[name])
+    ax.set(ylabel="task steering")
+    ax.grid(True, alpha=0.3)
+
+
 def plot(run: RunSeries, out: Path, title: str) -> None:
+    """Track (left); heading, who steered and the nav error over time (right)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    t, x, y = _pairs(run.x, run.y)
-    start = min((s[0][0] for s in (run.x, run.heading) if s), default=0.0)
+    times = [s[0] for series in (run.x, run.heading) for s in series]
+    start, end = min(times), max(times)
     names = list(dict.fromkeys(name for _, name in run.owners if name != "none"))
     colours = {name: plt.cm.tab10(i % 10) for i, name in enumerate(names)}
     err_t, err = nav_error(run)
     rows = 3 if err.size else 2
     fig = plt.figure(figsize=(14, 7))
-    ax = fig.add_subplot(1, 2, 1)
-    ax.plot(x, y, color="0.75", lw=1)
-    owner_times = np.asarray([w for w, _ in run.owners])
-    owner_of = np.searchsorted(owner_times, t, side="right") - 1 if t.size else np.array([])
-    for name in names:
-        held = np.asarray([i >= 0 and run.owners[i][1] == name for i in owner_of])
-        if held.any():
-            ax.plot(np.where(held, x, np.nan), np.where(held, y, np.nan), lw=2.5,
-                    color=colours[name], label=f"rudder: {name}")
-    _, tx, ty = _pairs(run.truth_x, run.truth_y)
-    if tx.size:
-        ax.plot(tx, ty, color="k", lw=0.6, ls=":", label="truth")
-    if x.size:
-        ax.plot(x[0], y[0], "go", label="start")
-        ax.plot(x[-1], y[-1], "ks", label="end")
-    ax.set(xlabel="X east (m)", ylabel="Y north (m)", title=title)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax_h = fig.add_subplot(rows, 2, 2)
-    ht = np.asarray([s[0] for s in run.heading]) - start
-    ax_h.plot(ht, unwrapped([s[1] for s in run.heading]), color="0.2", lw=1)
-    for when, name in run.owners:
-        ax_h.axvline(when - start, color=colours.get(name, "0.6"), ls="--", lw=0.8)
-    ax_h.set(ylabel="heading (deg, unwrapped)", title="NAV heading; dashed: rudder changes hands")
-    ax_h.grid(True, alpha=0.3)
-    ax_o = fig.add_subplot(rows, 2, 4)
-    for (when, name), end in zip(run.owners, [*owner_times[1:], max(ht.max(initial=0) + start,
-                                                                     owner_times.max(initial=0))],
-                                 strict=True):
-        if name != "none":
-            ax_o.barh(name, end - when, left=when - start, color=colours[name])
-    ax_o.set(ylabel="task steering", xlabel="time (s)" if rows == 2 else "")
-    ax_o.grid(True, alpha=0.3)
+    _track(fig.add_subplot(1, 2, 1), run, colours, title)
+    _heading(fig.add_subplot(rows, 2, 2), run, start, colours)
+    axes = fig.add_subplot(rows, 2, 4)
+    if run.owners:
+        _owners(axes, run, start, end, colours)
     if err.size:
-        ax_e = fig.add_subplot(rows, 2, 6)
-        ax_e.plot(err_t - start, err, color="tab:red", lw=1)
-        ax_e.set(xlabel="time (s)", ylabel="nav error (m)")
-        ax_e.grid(True, alpha=0.3)
+        axes = fig.add_subplot(rows, 2, 6)
+        axes.plot(err_t - start, err, color="tab:red", lw=1)
+        axes.set(ylabel="nav error (m)")
+        axes.grid(True, alpha=0.3)
+    axes.set(xlabel="time (s)")
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)
