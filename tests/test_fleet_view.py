@@ -5,10 +5,12 @@ ports or MAVProxy's ``--out`` would)."""
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 import threading
 import time
+import urllib.request
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -19,7 +21,7 @@ from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE, encode
 from mavhelm.demo.groundstation import GroundStation, Operator
 from tests.support.interop_helpers import REPO, SimProcess
 from tests.support.mission import mission_text
-from tests.support.ports import free_udp_port
+from tests.support.ports import free_port, free_udp_port
 from tests.support.processes import ConsoleProcess
 from tests.support.waiting import wait_for
 
@@ -80,9 +82,9 @@ def boat_tasks(n: int) -> str:
 
 @pytest.mark.slow
 def test_three_boats_on_one_screen(tmp_path):
-    port = free_udp_port()
+    port, web = free_udp_port(), free_port()
     view = ConsoleProcess([sys.executable, "-u", "-m", "mavhelm.cli", "view", "--connect",
-                           f"udpin:127.0.0.1:{port}"], cwd=REPO,
+                           f"udpin:127.0.0.1:{port}", "--web", f"127.0.0.1:{web}"], cwd=REPO,
                           log_path=tmp_path / "view.log")
     sims: list[SimProcess] = []
     companions: list[ConsoleProcess] = []
@@ -130,6 +132,10 @@ def test_three_boats_on_one_screen(tmp_path):
                         lambda: view.output(8))
         assert [int(row.split()[0]) for row in rows] == [2, 3, 4]
         assert [re.search(r"Leg\d", row).group(0) for row in rows] == ["Leg2", "Leg3", "Leg4"]
+        with urllib.request.urlopen(f"http://127.0.0.1:{web}/api/state", timeout=5) as answer:
+            page = json.loads(answer.read())
+        assert [(b["sysid"], b["owner"]) for b in page["boats"]] == \
+            [(2, "Leg2"), (3, "Leg3"), (4, "Leg4")]
     finally:
         running = False
         if thread.is_alive():

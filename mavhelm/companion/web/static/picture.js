@@ -204,6 +204,43 @@ function drawPanels(f) {
     `packets ${f.link.packets} (bad ${f.link.bad_packets})`);
 }
 
+// `mavhelm view --web`: every boat heard, a marker each and a row each
+function drawFleet(f) {
+  const g = $("vehicles"); clear(g);
+  const rows = f.boats.filter((b) => b.x !== null && b.y !== null);
+  for (const b of rows) {
+    drawVehicle(g, "nav", { x: b.x, y: b.y, heading: b.heading === null ? undefined : b.heading });
+    const marker = g.lastChild;
+    marker.id = `vehicle-${b.sysid}`;
+    el("text", { class: "label", x: 10 / view.scale, y: 0, style: `font-size:${13 / view.scale}px`,
+      transform: `rotate(${-(b.heading || 0)})` }, marker).textContent = `${b.sysid}`;
+  }
+  if (rows.length) {
+    track = rows.map((b) => [b.x, b.y]);
+    const [x0, y0, x1, y1] = extent();
+    const w = $("map").clientWidth, h = $("map").clientHeight;
+    if ((x1 - x0) * view.scale > w || (y1 - y0) * view.scale > h || !last) fit();
+    track = [];
+  }
+  last = { poses: {} };
+  const helm = $("helm");
+  helm.textContent = `${f.boats.length} vehicles`; helm.className = "state online";
+  text("why", ""); text("mode", ""); text("armed", ""); text("link", "");
+  text("clock", new Date(f.t * 1000).toISOString().slice(11, 19) + " UTC");
+  text("steering", "");
+  const head = $("tasks").tHead.rows[0];
+  head.innerHTML = "<th>sys</th><th>mode</th><th>helm</th><th>steering</th>";
+  const body = $("tasks").tBodies[0]; clear(body);
+  for (const b of f.boats) {
+    const row = body.insertRow();
+    row.className = "boat"; row.dataset.sysid = b.sysid;
+    const helmText = b.online === null ? "?" : (b.online ? "ONLINE" : "offline");
+    for (const v of [b.sysid, `${b.mode || "?"}${b.armed ? " armed" : ""}`, helmText,
+      b.steering + (b.silent ? " (silent)" : "")]) row.insertCell().textContent = v;
+  }
+  window.mavhelmFrames += 1;
+}
+
 async function act(name, body) {
   const token = $("token").value.trim();
   const headers = { "Content-Type": "application/json" };
@@ -229,6 +266,7 @@ function connect() {
       fit(); drawMission(); drawTrack();
       return;
     }
+    if (f.type === "fleet") { drawFleet(f); return; }
     if (f.mission) { mission = f.mission; track = []; fit(); drawMission(); }
     if (f.track.length) { track.push(...f.track); if (track.length > 5000) track.splice(0, track.length - 5000); drawTrack(); }
     last = f;
