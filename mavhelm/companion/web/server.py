@@ -7,9 +7,11 @@ computer a server thread that the kernel pauses while it holds that lock stalls 
 milliseconds. The two talk over a local socket pair that keeps message boundaries
 (SOCK_SEQPACKET): the companion sends each frame without waiting (``WebProcess.offer``; a frame
 the socket has no room for is dropped and counted) and reads the page's actions without waiting
-(``WebProcess.actions``). A slow browser only misses frames: each page's send runs on its own,
-and a page still busy with the last frame skips the next. The child exits when the companion's
-end of the socket closes, so it never outlives the companion.
+(``WebProcess.actions``). The server, at a lower priority, reads the frames on its own timer
+rather than waking on each, so sending one never hands the processor to it. A slow browser
+only misses frames: each page's send runs on its own, and a page still busy with the last
+frame skips the next. The child exits when the companion's end of the socket closes, so it
+never outlives the companion.
 """
 
 from __future__ import annotations
@@ -42,7 +44,9 @@ MESSAGE_MAX = 1 << 20
 STATIC = ("index.html", "picture.js", "picture.css")
 DEFAULT_HOST = "127.0.0.1"
 NICE = 10
-"""The server process's niceness: below the companion, which wakes it with every frame."""
+"""The server process's niceness: below the companion's."""
+POLL_S = 0.05
+"""How often the server reads the companion's frames (they come 4 times a second)."""
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -193,14 +197,22 @@ class PageServer:
             self.port = server.sockets[0].getsockname()[1]
         self._reply({"listening": self.port})
         self.channel.setblocking(False)
-        asyncio.get_running_loop().add_reader(self.channel.fileno(), self._on_channel)
+        poll = asyncio.create_task(self._poll_channel())
         await self._closed.wait()
+        poll.cancel()
         for page in list(self.pages):
             await page.ws.close()
         await runner.cleanup()
 
     def _reply(self, message: dict[str, Any]) -> None:
         self.channel.sendall(json.dumps(message).encode())
+
+    async def _poll_channel(self) -> None:
+        """Read the channel every ``POLL_S`` rather than wait on it: a frame the tick sends then
+        wakes nothing, so the kernel never switches from the tick to this process on a send."""
+        while True:
+            self._on_channel()
+            await asyncio.sleep(POLL_S)
 
     def _on_channel(self) -> None:
         """Frames from the companion; the newest is broadcast (older ones in the same read are
@@ -214,7 +226,6 @@ class PageServer:
             except OSError:
                 data = b""
             if not data:
-                asyncio.get_running_loop().remove_reader(self.channel.fileno())
                 assert self._closed is not None
                 self._closed.set()
                 return
@@ -325,8 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     channel = socket.socket(fileno=args.fd)
     with contextlib.suppress(OSError):
-        os.nice(NICE)  # the helm first: a frame the tick wakes this process for must not
-        # preempt the tick on a busy computer
+        os.nice(NICE)  # the helm first, on a busy computer
     config = json.loads(channel.recv(MESSAGE_MAX) or b"{}")
     if not config:
         return 1
