@@ -44,6 +44,7 @@ bench: $(BIN)/.installed
 	$(BIN)/python -m benchmarks.bench_step_response
 	$(BIN)/python -m benchmarks.bench_braking
 	$(BIN)/python -m benchmarks.bench_lsq
+	$(BIN)/python -m benchmarks.bench_web
 
 params: $(BIN)/.installed
 	$(BIN)/mavhelm params > docs/parameters.md

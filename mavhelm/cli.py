@@ -16,6 +16,8 @@ def _run(args: argparse.Namespace) -> int:
     from mavhelm.companion.companion import Companion, Plan
     from mavhelm.core.clock import AutopilotClock, WallClock
 
+    if args.web_control and args.web is None:
+        args.usage_error("--web-control needs --web [HOST:]PORT")
     clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
     plan = Plan.from_mission(args.mission, clock, connect=args.connect)
     log_dir = Path(args.log_dir or mission_log_dir(plan.mission))
@@ -26,25 +28,48 @@ def _run(args: argparse.Namespace) -> int:
         raise SettingError(setting, f"the log folder {str(log_dir)!r}", exc) from None
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
     companion = Companion.build(plan.mission, clock, connect=args.connect, alog_path=alog,
-                                echo=lambda line: print(line, flush=True))
-    print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to {alog}",
-          flush=True)
-    next_tick = clock.now()
+                                echo=lambda line: print(line, flush=True),
+                                tlog_path=alog.with_suffix(".tlog"))
+    web = None
     try:
-        while True:
-            companion.tick(clock.now())
-            if args.exit_at_end and companion.mission_over():
-                print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
-                break
-            next_tick += companion.tick_period
-            if next_tick < clock.now() - companion.tick_period:
-                next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
-            clock.sleep_until(next_tick)
+        print(f"mavhelm: {args.mission} on {companion.bridge.config.connect}; logging to "
+              f"{alog} (and its MAVLink traffic to {alog.with_suffix('.tlog').name})",
+              flush=True)
+        web = _serve_web(companion, args)
+        _tick_until_stopped(companion, clock, args.exit_at_end)
     except KeyboardInterrupt:
         print("mavhelm: stopped", flush=True)
     finally:
+        if web is not None:
+            web.stop()
         companion.close()
     return 0
+
+
+def _serve_web(companion, args: argparse.Namespace):
+    """``--web``: the live page (None without it)."""
+    if args.web is None:
+        return None
+    from mavhelm.companion.web.view import start_web
+
+    try:
+        return start_web(companion, args.web, control=args.web_control,
+                         echo=lambda line: print(line, flush=True))
+    except OSError as exc:
+        raise SettingError("--web", f"the web view on {args.web}", exc) from None
+
+
+def _tick_until_stopped(companion, clock, exit_at_end: bool) -> None:
+    next_tick = clock.now()
+    while True:
+        companion.tick(clock.now())
+        if exit_at_end and companion.mission_over():
+            print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
+            return
+        next_tick += companion.tick_period
+        if next_tick < clock.now() - companion.tick_period:
+            next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
+        clock.sleep_until(next_tick)
 
 
 def _stop(signum, frame) -> None:
@@ -159,6 +184,17 @@ def _link_address(text: str) -> str:
     return text
 
 
+def _web_address(text: str) -> str:
+    """``--web [HOST:]PORT``."""
+    from mavhelm.companion.web.server import parse_address
+
+    try:
+        parse_address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def _system_component(text: str) -> tuple[int, int]:
     """``SYSTEM:COMPONENT`` (``--target``, ``--source``)."""
     parts = text.split(":")
@@ -249,7 +285,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--clock", choices=["wall", "autopilot"], default="wall",
                      help="pace the helm on the wall clock (a real vehicle) or on the "
                           "autopilot's time_boot_ms (a SITL run with --speedup)")
-    run.set_defaults(func=_run)
+    run.add_argument("--web", metavar="[HOST:]PORT", type=_web_address, default=None,
+                     help="serve the live map and helm state on this address (HOST defaults "
+                          "to 127.0.0.1: give 0.0.0.0 to reach it from another computer)")
+    run.add_argument("--web-control", action="store_true",
+                     help="with --web: add ALL STOP, hand back, restart helm and remote flags "
+                          "to the page, behind a token printed at start")
+    run.set_defaults(func=_run, usage_error=run.error)
 
     check = sub.add_parser("check", help="pre-flight checklist: connect, read the streams and "
                            "parameters the companion needs, say what is wrong and how to fix it")
@@ -289,6 +331,22 @@ def build_parser() -> argparse.ArgumentParser:
     remote_console.add_arguments(remote)
     remote.set_defaults(func=remote_console.run)
 
+    from mavhelm.companion import log_plot
+
+    log = sub.add_parser("log", help="tools for a run's logs")
+    log_sub = log.add_subparsers(dest="log_command", required=True)
+    plot = log_sub.add_parser("plot", help="track, who steered, heading (unwrapped) and nav "
+                              "error of a run's .alog or .tlog, as a PNG")
+    log_plot.add_arguments(plot)
+    plot.set_defaults(func=log_plot.run)
+
+    from mavhelm.companion import fleet_console
+
+    view = sub.add_parser("view", help="several vehicles on one screen: every MAV_SYSID heard "
+                          "on a ground station's link, with its mode and the helm's task")
+    fleet_console.add_arguments(view)
+    view.set_defaults(func=fleet_console.run, usage_error=view.error)
+
     sim = sub.add_parser("sim", help="an ArduPilot-Rover-like simulator a ground station can use")
     runner.add_arguments(sim)
     sim.set_defaults(func=_sim)
@@ -312,7 +370,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="run a mission end to end in the built-in simulator")
     demo.add_argument("mission", nargs="?", default=None,
-                      help="mission file (default examples/demo.moos)")
+                      help="mission file (default: the demo mission shipped with mavhelm, "
+                      "examples/demo.moos in the repository)")
     demo.add_argument("--out", default="runs", help="output folder (default runs/)")
     from mavhelm.sitl.models import DEFAULT_MODEL, MODEL_NAMES
 

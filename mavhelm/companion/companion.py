@@ -24,6 +24,7 @@ from mavhelm.companion.serial_instruments import (
     is_instrument_block,
 )
 from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE
+from mavhelm.companion.tlog_writer import TlogWriter
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
@@ -148,14 +149,17 @@ class Companion:
     tick_period: float
     plan: Plan
     nav_logs: NavLogFiles | None = None
+    tlog: TlogWriter | None = None
 
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
               link: AutopilotLink | None = None,
               alog_path: str | Path | None = None,
               alog_opened_on: float | None = None,
-              echo: Callable[[str], None] | None = None) -> Companion:
-        """Everything is configured (and the mission validated) before the link is opened."""
+              echo: Callable[[str], None] | None = None,
+              tlog_path: str | Path | None = None) -> Companion:
+        """Everything is configured (and the mission validated) before the link is opened.
+        ``tlog_path``: record the autopilot link's traffic there (``tlog_writer.py``)."""
         plan = Plan.from_mission(mission, clock, connect=connect)
         bus, navigator, helm = plan.bus, plan.navigator, plan.helm
         bridge = MavlinkBridge(bus, plan.link, plan.origin, link,
@@ -180,6 +184,14 @@ class Companion:
                         1.0 / helm.app_tick, plan, nav_logs)
         companion.community.apps.insert(0, HelmReloader(bus, companion.reload))
         companion.community.apps.insert(0, MoosNotes(bus, mission_notes(plan.mission)))
+        if tlog_path is not None:
+            try:
+                companion.tlog = TlogWriter(
+                    tlog_path, on_error=lambda why: bus.notify("TLOG_WARNING", why, "pLogger"))
+            except (OSError, ValueError) as exc:
+                companion.close()
+                raise SettingError("--log-dir", f"the .tlog {str(tlog_path)!r}", exc) from None
+            bridge.link.recorder = companion.tlog.record
         return companion
 
     def tick(self, now: float) -> None:
@@ -226,3 +238,5 @@ class Companion:
         self.community.close()
         if self.nav_logs is not None:
             self.nav_logs.close()
+        if self.tlog is not None:
+            self.tlog.close()

@@ -22,6 +22,7 @@ import errno
 import os
 import select
 import socket
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -282,6 +283,8 @@ class AutopilotLink:
     events: list[str] = field(default_factory=list)
     generation: int = 0
     connected: bool = False
+    recorder: Callable[[bytes], None] | None = None
+    """Given every frame read and every frame sent (a ``.tlog``: ``tlog_writer.py``)."""
 
     def __post_init__(self) -> None:
         if self.transport is None:
@@ -379,6 +382,10 @@ class AutopilotLink:
             kept.extend(self.mav.parse_buffer(data) or [])
         except mavlink.MAVError as exc:
             kept.append(mavlink.MAVLink_bad_data(data, str(exc)))
+        if self.recorder is not None:
+            for msg in kept:
+                if msg.get_type() != "BAD_DATA":
+                    self.recorder(bytes(msg.get_msgbuf()))
         return kept
 
     def _newest_heartbeat(self, data: bytearray, end: int) -> mavlink.MAVLink_message | None:
@@ -426,6 +433,8 @@ class AutopilotLink:
             return
         assert self.transport is not None
         self.stats.bytes_written += self.transport.write(data)
+        if self.recorder is not None:
+            self.recorder(bytes(data))
 
     def fileno(self) -> int | None:
         assert self.transport is not None

@@ -17,7 +17,9 @@ from mavhelm.demo.harness import SimulatedRun
 from mavhelm.demo.report import Summary, format_summary, plot_run, summarize, write_track_csv
 from mavhelm.sitl.models import DEFAULT_MODEL
 
-DEFAULT_MISSION = Path(__file__).resolve().parents[2] / "examples" / "demo.moos"
+DEFAULT_MISSION = Path(__file__).resolve().parent / "demo.moos"
+"""The demo mission ships inside the package (``examples/demo.moos`` in the repository is a link
+to it), so ``mavhelm demo`` runs from any folder after ``pip install``."""
 
 
 @dataclass

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mavhelm.companion.log_plot import unwrapped
 from mavhelm.core.bus import Message
 from mavhelm.core.mission import Mission
 from mavhelm.sitl.truth import Truth
@@ -167,13 +168,13 @@ def plot_track(ax: Any, track: Sequence[Truth], owners: Sequence[tuple[float, st
 def plot_heading(ax: Any, track: Sequence[Truth], owners: Sequence[tuple[float, str]],
                  colours: dict[str, Any]) -> None:
     """Heading over time, with the moments the rudder changes hands."""
-    ax.plot([s.t for s in track], [s.heading for s in track], color="0.3", lw=1)
+    ax.plot([s.t for s in track], unwrapped([s.heading for s in track]), color="0.3", lw=1)
+    top = ax.get_ylim()[1]
     for when, name in owners:
         ax.axvline(when, color=colours.get(name, "k"), ls="--", lw=0.8)
-        ax.annotate(name, (when, 365), rotation=90, fontsize=7, va="top")
-    ax.set_ylim(0, 370)
+        ax.annotate(name, (when, top), rotation=90, fontsize=7, va="top")
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("heading (deg)")
+    ax.set_ylabel("heading (deg, unwrapped: no jump at 0/360)")
     ax.set_title("Heading; dashed: rudder changes hands")
     ax.grid(True, alpha=0.3)
 

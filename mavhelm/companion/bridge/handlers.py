@@ -48,7 +48,8 @@ FAR_FROM_ORIGIN_M = 5000.0
 def on_command_long(bridge: MavlinkBridge, msg: Msg) -> bool:
     """A ground station's command to the companion (ArduPilot routes COMMAND_LONG for our
     system and component to our link): USER_1 restarts the helm, USER_2 posts a remote
-    flag. Answered with COMMAND_ACK like any MAVLink command."""
+    flag, DO_SET_MODE is asked of the autopilot (the web page's ALL STOP and hand back).
+    Answered with COMMAND_ACK like any MAVLink command."""
     src = f"{msg.get_srcSystem()}:{msg.get_srcComponent()}"
     result = mavlink.MAV_RESULT_UNSUPPORTED
     if msg.command == CMD_RESTART_HELM:
@@ -56,6 +57,8 @@ def on_command_long(bridge: MavlinkBridge, msg: Msg) -> bool:
         result = mavlink.MAV_RESULT_ACCEPTED
     elif msg.command == CMD_REMOTE_FLAG:
         result = _remote_flag(bridge, msg.param1, src)
+    elif msg.command == mavlink.MAV_CMD_DO_SET_MODE:
+        result = _operator_mode(bridge, msg.param2, src)
     bridge.link.mav.command_ack_send(msg.command, result, 0, 0, msg.get_srcSystem(),
                                      msg.get_srcComponent())
     return True
@@ -71,6 +74,18 @@ def _remote_flag(bridge: MavlinkBridge, param1: float, src: str) -> int:
     flag = flags[index - 1]
     bridge.input.notify(flag, f"GCS {src}")
     bridge.input.notify("REMOTE_FLAG", flag)
+    return mavlink.MAV_RESULT_ACCEPTED
+
+
+def _operator_mode(bridge: MavlinkBridge, custom_mode: float, src: str) -> int:
+    """Relay a mode change to the autopilot, confirmed by its HEARTBEAT (``ModeRequest``)."""
+    number = int(custom_mode) if math.isfinite(custom_mode) else -1
+    mode = ROVER_MODES.get(number)
+    if mode is None:
+        bridge.input.notify("MAVLINK_WARNING", f"mode {custom_mode:g} from {src} refused: "
+                            "not a Rover mode")
+        return mavlink.MAV_RESULT_DENIED
+    bridge.send_path.request_mode(mode, src)
     return mavlink.MAV_RESULT_ACCEPTED
 
 
@@ -289,6 +304,9 @@ def on_command_ack(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     handback = bridge.send_path.handback
     if msg.command == mavlink.MAV_CMD_DO_SET_MODE and handback is not None:
         handback.acknowledged(msg.result)
+    operator = bridge.send_path.operator_mode
+    if msg.command == mavlink.MAV_CMD_DO_SET_MODE and operator is not None:
+        operator.acknowledged(msg.result)
     if msg.command == mavlink.MAV_CMD_DO_SET_SERVO:
         report = bridge.servos.acknowledged(msg.result)
         if report is not None:

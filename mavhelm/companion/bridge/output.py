@@ -51,6 +51,8 @@ class OutputPath:
     def __init__(self, bridge: MavlinkBridge) -> None:
         self.bridge = bridge
         self.handback: ModeRequest | None = None
+        self.operator_mode: ModeRequest | None = None
+        """A mode an operator asked the companion for (DO_SET_MODE to it): ALL STOP."""
         self.refused_outputs = 0
         self.named_values: dict[str, float] = {}
         self.next_named_values = -math.inf
@@ -80,6 +82,7 @@ class OutputPath:
             elif m.name == REPLY_VARIABLE:
                 self.send_reply(m.string)
         self.drive_handback(now)
+        self.drive_operator_mode(now)
         if not bridge.online:
             for name in ("DES_RUDDER", "DES_THRUST"):
                 self.named_values.pop(name, None)  # not driving: no demand to show
@@ -157,6 +160,26 @@ class OutputPath:
             self.bridge.output.notify(
                 "HELM_HANDBACK_ERROR", f"ArduPilot did not take the vehicle in {hb.mode} "
                 f"({hb.why()}{said}): the helm keeps the end values")
+
+    def request_mode(self, mode: str, who: str) -> None:
+        """An operator asks for ``mode`` through the companion; the newest request wins."""
+        self.operator_mode = ModeRequest(mode, HANDBACK_TRIES, HANDBACK_RETRY_S)
+        self.bridge.output.notify("AP_MODE_REQUEST", f"{mode} for {who}")
+
+    def drive_operator_mode(self, now: float) -> None:
+        """Send the operator's mode request until the HEARTBEAT shows it or it fails."""
+        request = self.operator_mode
+        if request is None or request.done:
+            return
+        request.heartbeat(self.bridge.state.mode)
+        step = request.step(now)
+        if step is Step.SEND:
+            config = self.bridge.config
+            self.bridge.link.mav.send(request.message(config.target_system,
+                                                      config.target_component))
+        elif step is Step.FAILED:
+            self.bridge.output.notify("AP_MODE_REQUEST_WARNING", f"the autopilot did not take "
+                                      f"{request.mode}: {request.why()}")
 
     def send_statustext(self, text: str, severity: int) -> None:
         """A line for the ground station's message pane. MAVLink 2 carries 50 bytes a message;

@@ -1,0 +1,127 @@
+"""Benchmark: what the web view costs the companion's tick.
+
+The demo mission, handed over in lockstep and then paced in real time for ``PACED_S`` seconds
+(as on the boat: a frame every 0.25 s of wall time, not hundreds a second as an unpaced
+lockstep would make), run without the web view, then with it serving a page that a separate
+process reads over the websocket as a browser would (every frame JSON-decoded); the same again
+in the other order, so a drift of the shared machine's load shows. Prints the whole companion
+tick's median and p99 for each, on the wall clock (what the helm sees, with whatever else the
+computer does) and in CPU time (the tick's own work, which the machine's load does not blur),
+and the frames the page got.
+
+Run: ``.venv/bin/python -m benchmarks.bench_web`` from the repository root.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mavhelm.companion.web.server import WebProcess
+from mavhelm.companion.web.view import WebView
+from mavhelm.demo.harness import SimulatedRun
+
+DEMO = Path(__file__).resolve().parent.parent / "examples" / "demo.moos"
+PACED_S = 60.0
+
+
+async def _read_frames(url: str) -> None:
+    import aiohttp
+
+    frames = 0
+    async with aiohttp.ClientSession() as session:
+        async with session.ws_connect(url) as ws:
+            async for msg in ws:
+                json.loads(msg.data)
+                frames += 1
+                if frames % 50 == 0:
+                    print(frames, flush=True)
+
+
+def client(url: str) -> None:
+    """The page's side: read frames until the server goes away. It stands for a browser on the
+    operator's computer, not on the boat's, so it runs at the lowest priority here: the
+    benchmark measures what serving costs the companion, not what a browser beside it would."""
+    os.nice(19)
+    try:
+        asyncio.run(_read_frames(url))
+    except Exception:  # noqa: BLE001 - the benchmark's server closing ends the reader
+        pass
+
+
+def run_once(web: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """The demo mission's companion tick times (wall and CPU) and the web view's own part of
+    each (s); with ``web``, frames sent and dropped."""
+    with SimulatedRun.start(DEMO, fast_start=False) as run:
+        run.companion.community.profile = True
+        cpu: list[float] = []
+        tick = run.companion.tick
+
+        def timed_tick(now: float) -> None:
+            t0 = time.thread_time()
+            tick(now)
+            cpu.append(time.thread_time() - t0)
+        run.companion.tick = timed_tick  # type: ignore[method-assign]
+        server = reader = None
+        if web:
+            server = WebProcess("127.0.0.1", 0)
+            server.start()
+            run.companion.community.apps.append(WebView(run.companion, server))
+            reader = subprocess.Popen([sys.executable, "-m", "benchmarks.bench_web", "--client",
+                                       f"ws://127.0.0.1:{server.port}/ws"],
+                                      stdout=subprocess.DEVNULL)
+            time.sleep(2.0)  # the reader connects
+        try:
+            run.hand_over()
+            first = len(run.companion_tick_seconds)
+            sim0, wall0 = run.clock.now(), time.perf_counter()
+            while run.clock.now() - sim0 < PACED_S:
+                ahead = (run.step() - sim0) - (time.perf_counter() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+        finally:
+            if server is not None:
+                server.stop()
+            if reader is not None:
+                reader.wait(10)
+        ticks = np.asarray(run.companion_tick_seconds[first:])
+        cpu_ticks = np.asarray(cpu[first:])
+        own = np.asarray(run.companion.community.app_seconds.get("iWeb", [0.0])[first:] or [0.0])
+        return (ticks, cpu_ticks, own, (server.sent if server else 0),
+                (server.dropped if server else 0))
+
+
+def main() -> None:
+    if len(sys.argv) == 3 and sys.argv[1] == "--client":
+        client(sys.argv[2])
+        return
+    print(f"web view cost on the demo mission ({PACED_S:g} s in real time; whole "
+          "companion tick)")
+    results: dict[bool, list[np.ndarray]] = {False: [], True: []}
+    cpu_results: dict[bool, list[np.ndarray]] = {False: [], True: []}
+    for web in (False, True, True, False):
+        ticks, cpu, own, sent, dropped = run_once(web)
+        results[web].append(ticks)
+        cpu_results[web].append(cpu)
+        extra = (f"\n      the view's own part of a tick: median {np.median(own) * 1e6:.1f} us, "
+                 f"p99 {np.percentile(own, 99) * 1e6:.1f} us; frames sent {sent}, dropped "
+                 f"{dropped}") if web else ""
+        print(f"  {'with' if web else 'without':7s} web: median {np.median(ticks) * 1e6:7.1f} us"
+              f"   p99 {np.percentile(ticks, 99) * 1e6:7.1f} us   CPU p99 "
+              f"{np.percentile(cpu, 99) * 1e6:7.1f} us   (n={ticks.size}){extra}",
+              flush=True)
+    for label, table in (("wall", results), ("CPU", cpu_results)):
+        p99 = {web: np.percentile(np.concatenate(runs), 99) for web, runs in table.items()}
+        print(f"  {label} p99 over both runs: without {p99[False] * 1e6:.1f} us, with "
+              f"{p99[True] * 1e6:.1f} us: {100.0 * (p99[True] / p99[False] - 1.0):+.1f} %")
+
+
+if __name__ == "__main__":
+    main()
