@@ -23,7 +23,7 @@ from mavhelm.companion.mode_request import modes_for
 from mavhelm.companion.signing import send_setup_signing, signature
 from mavhelm.core.clock import boot_seconds
 from mavhelm.core.geodesy import lat_lon_e7
-from mavhelm.core.sender import SenderId, mavlink_source
+from mavhelm.core.sender import LOCAL_BUS, SenderId, mavlink_source
 from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
 
 if TYPE_CHECKING:
@@ -80,10 +80,10 @@ def _remote_flag(bridge: MavlinkBridge, param1: float, src: str) -> int:
 def _operator_mode(bridge: MavlinkBridge, custom_mode: float, src: str) -> int:
     """Relay a mode change to the autopilot, confirmed by its HEARTBEAT (``ModeRequest``)."""
     number = int(custom_mode) if math.isfinite(custom_mode) else -1
-    mode = ROVER_MODES.get(number)
+    mode = modes_for(bridge.state.vehicle_type).get(number)
     if mode is None:
         bridge.input.notify("MAVLINK_WARNING", f"mode {custom_mode:g} from {src} refused: "
-                            "not a Rover mode")
+                            "not a mode of this autopilot")
         return mavlink.MAV_RESULT_DENIED
     bridge.send_path.request_mode(mode, src)
     return mavlink.MAV_RESULT_ACCEPTED
@@ -139,6 +139,17 @@ def admitted(bridge: MavlinkBridge, msg: Msg, kind: str, now: float) -> bool:
         bridge.link.mav.command_ack_send(msg.command, mavlink.MAV_RESULT_DENIED, 0, 0,
                                          sender.system, sender.component)
     return False
+
+
+def local_command(bridge: MavlinkBridge, msg: Msg, now: float) -> bool:
+    """A command from the companion's own side (the web page's control): the same sender check
+    as a ground station's, as the local bus, then the same handler. True if it was taken."""
+    kind = msg.get_type()
+    if kind not in TO_COMPANION or bridge.authorize(LOCAL_BUS, True, _command_name(msg, kind),
+                                                    now) is not None:
+        return False
+    TO_COMPANION[kind](bridge, msg)
+    return True
 
 
 # -- from the autopilot -------------------------------------------------------------------

@@ -11,6 +11,7 @@ import secrets
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from mavhelm.companion.bridge.handlers import local_command
 from mavhelm.companion.console import StatusConsole
 from mavhelm.companion.status import CompanionStatus
 from mavhelm.companion.web import picture
@@ -118,7 +119,7 @@ class WebView(App):
 
     def _take_actions(self, now: float) -> None:
         """The page's actions, each announced and then handed to the bridge as a COMMAND_LONG
-        from the web console."""
+        from the local bus (never as a MAVLink sender, which a radio could impersonate)."""
         for action in self.server.actions():
             self.notify(ACTION_VARIABLE, f"{action.describe()} from the web page "
                         f"({action.peer})")
@@ -126,7 +127,7 @@ class WebView(App):
             config = bridge.config
             online_mode = config.online_modes[0] if config.online_modes else "GUIDED"
             msg = action.command(online_mode, (config.system_id, config.component_id))
-            bridge.take(as_heard(msg, (config.system_id, WEB_COMPONENT)), now)
+            local_command(bridge, as_heard(msg, (config.system_id, WEB_COMPONENT)), now)
 
 
 def _shown(value: float | str) -> float | str:
