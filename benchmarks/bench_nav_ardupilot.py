@@ -39,7 +39,7 @@ companion on two cores once the instruments run too: it fell 90 autopilot s behi
    SIMSTATE/SIM_STATE; the companion reads them with iSerial blocks and pNav fuses GPS +
    compass + DVL + ATTITUDE gyro + ranges (``X = GPS @ 2, EKF @ 2``; the sim tests' lines, with
    ``EKF_XY_DYNAMICS``/``EKF_YAW_DYNAMICS 10`` for the real hull's turns, ``EKF_MAX_SPEED 15``,
-   and ``LSQ_TIMEOUT NEVER``: the LSQ's static model seldom fixes on a boat moving at 4 m/s
+   and ``LSQTimeOut NEVER``: the LSQ's static model seldom fixes on a boat moving at 4 m/s
    with round-robin ranges, one beacon each 0.5 s, and its 30 s time-out once declared
    navigation failure 5 s into the outage with the EKF within 0.5 m). The SITL runs with
    ``FS_EKF_ACTION 0`` (else ArduPilot's EKF failsafe takes the boat from GUIDED when its GPS
@@ -155,7 +155,7 @@ NAV_OUTAGE = """\
     EKF_XY_DYNAMICS    = 10
     EKF_YAW_DYNAMICS   = 10
     EKF_MAX_SPEED      = 15
-    LSQ_TIMEOUT        = NEVER
+    LSQTimeOut         = NEVER
 """ + "".join(f"    BEACON = {i} @ {x:g},{y:g},{z:g}\n" for i, x, y, z in BEACONS)
 
 INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
@@ -666,7 +666,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   instruments: mavhelm instruments --truth tcp:127.0.0.1:{sitl.ports.serial2} "
           f"(heading HDT, DVL, radio ranges to 3 beacons) driven by the SITL's SIMSTATE")
     print("   pNav: GPS + HDG compass + DVL + ATTITUDE gyro + RANGE radio, EKF_XY/YAW_DYNAMICS 10, "
-          "LSQ_TIMEOUT NEVER; X/Y = GPS @ 2, EKF @ 2; "
+          "LSQTimeOut NEVER; X/Y = GPS @ 2, EKF @ 2; "
           f"wall {wall:.1f} s; companion tick {tick_period(log, g0, g1)}")
     print(f"   SIM_GPS1_ENABLE 0 at autopilot {off_ms / 1000:.1f} s, 1 at {on_ms / 1000:.1f} s "
           f"({(on_ms - off_ms) / 1000:.1f} s); the companion had no GPS_X for "

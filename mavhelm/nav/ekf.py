@@ -97,7 +97,6 @@ from scipy.stats import chi2
 from mavhelm.nav.settings import (
     EKF_BEACON_OFFSETS,
     EKF_GATE,
-    EKF_MAX_SIGMA_XY,
     EKF_MAX_SPEED,
     EKF_MOBILE,
     EKF_RANGE_SCALE,
@@ -109,6 +108,7 @@ from mavhelm.nav.settings import (
     EKF_YAW_BIAS,
     EKF_YAW_DYNAMICS,
     EKF_Z_DYNAMICS,
+    MAX_EKF_POSITION_UNCERTAINTY,
     RADIANS_PER_DEGREE,
     check_config,
     setting,
@@ -164,6 +164,12 @@ class NavigationFailure(Exception):
     and the navigator must declare a navigation failure (``NAVIGATION_FAILURE``, EndMission)."""
 
 
+class PositionLost(NavigationFailure):
+    """The position 1-σ passed ``max_position_sigma`` (MaxEKFPositionUncertainty): the EKF is
+    lost. The navigator decides what follows: a re-boot from the LSQ when one runs, else a
+    navigation failure."""
+
+
 @dataclass(frozen=True)
 class Beacon:
     """A range beacon at a surveyed position. ``z`` is its height relative to the vehicle's
@@ -209,8 +215,8 @@ class EKFConfig:
       (0.999: a lone observation is refused beyond 3.3 σ).
     - ``max_speed`` (m/s, EKF_MAX_SPEED), ``max_yaw_rate`` (rad/s): rate states beyond these
       are reset.
-    - ``max_position_sigma`` (m, EKF_MAX_SIGMA_XY): larger 1-σ of the position is a
-      navigation failure.
+    - ``max_position_sigma`` (m, MaxEKFPositionUncertainty): larger 1-σ of the position and
+      the filter is lost (:class:`PositionLost`).
     - ``mobile`` (EKF_MOBILE): False for a static vehicle (spec 2.2.2): no rate states, the
       pose a random walk of the dynamics' strength.
     - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
@@ -241,7 +247,7 @@ class EKFConfig:
     gate_probability: float = setting(EKF_GATE)
     max_speed: float = setting(EKF_MAX_SPEED)
     max_yaw_rate: float = math.pi
-    max_position_sigma: float = setting(EKF_MAX_SIGMA_XY)
+    max_position_sigma: float = setting(MAX_EKF_POSITION_UNCERTAINTY)
     mobile: bool = setting(EKF_MOBILE)
     estimate_z: bool = False
     z_dynamics: float = setting(EKF_Z_DYNAMICS)
@@ -887,7 +893,7 @@ class EKF:
                                  f"{cfg.max_yaw_rate:.2f} rad/s: yaw rate state reset to zero")
         sigma = self.position_sigma()
         if not sigma <= cfg.max_position_sigma:
-            self.failure = NavigationFailure(
+            self.failure = PositionLost(
                 f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
                 f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
             raise self.failure

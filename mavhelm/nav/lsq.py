@@ -5,8 +5,7 @@ short window until the position is observable (ranges to at least ``min_beacons`
 beacons), solves by Gauss–Newton (Newton–Raphson on the linearised range equations, with step
 halving), publishes the fix and starts again from scratch. Being memory-less it cannot diverge,
 which is why it boots the EKF when the start is known only roughly and watches it afterwards
-(spec 2.2.9): :class:`DivergenceMonitor` counts fixes that disagree with the EKF by more than
-20 m and asks for a re-initialisation after 6 in a row.
+(spec 2.2.9; the checks are :mod:`mavhelm.nav.filter_safety`).
 
 Data rejection (spec 2.2.6): a solution whose weighted residuals fail a χ² test (with n − 2
 degrees of freedom, n − 3 with the offset) has its worst range dropped and is solved again
@@ -42,12 +41,7 @@ from dataclasses import dataclass
 from scipy.stats import chi2
 
 from mavhelm.nav.ekf import Beacon, Range
-from mavhelm.nav.settings import LSQ_DIVERGENCE, LSQ_WINDOW
-
-DIVERGENCE_DISTANCE: float = LSQ_DIVERGENCE.default
-"""m: an LSQ fix further than this from the EKF is a disagreement (spec 2.2.9)."""
-DIVERGENCE_COUNT = 6
-"""Disagreements in a row before the EKF is re-initialised to the LSQ (the original's 6)."""
+from mavhelm.nav.settings import LSQ_WINDOW
 
 
 @dataclass(frozen=True)
@@ -297,24 +291,3 @@ class LSQ:
         if gate is None:
             gate = self._gates[fix.dof] = float(chi2.ppf(self.gate_probability, fix.dof))
         return fix.chi2 <= gate
-
-
-class DivergenceMonitor:
-    """Spec 2.2.9: ``check(fix, ekf_x, ekf_y)`` is True when the EKF should be re-initialised
-    to the fix, i.e. after ``count`` fixes in a row further than ``distance`` from it."""
-
-    def __init__(self, distance: float = DIVERGENCE_DISTANCE,
-                 count: int = DIVERGENCE_COUNT) -> None:
-        self.distance = distance
-        self.count = count
-        self.disagreements = 0
-
-    def check(self, fix: Fix, ekf_x: float, ekf_y: float) -> bool:
-        if math.hypot(fix.x - ekf_x, fix.y - ekf_y) > self.distance:
-            self.disagreements += 1
-        else:
-            self.disagreements = 0
-        if self.disagreements >= self.count:
-            self.disagreements = 0
-            return True
-        return False
