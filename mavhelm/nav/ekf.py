@@ -495,6 +495,8 @@ class EKF:
         self._last_dt = 0.0
         self.kf.F = np.eye(self.dim)
         self.kf.Q = np.zeros((self.dim, self.dim))
+        self._wander: tuple[float, float] | None = None
+        """(extra bias variance rate, until when) after a heading doubt."""
         self._eye = np.eye(self.dim)
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
@@ -650,6 +652,11 @@ class EKF:
             pp, pv, _, vv = white_noise_block(dt)
             q_pp, q_pv, q_vv, q_walk = self._noise_templates
             kf.P += pp * q_pp + pv * q_pv + vv * q_vv + dt * q_walk
+            if self._wander is not None and self.i_bias is not None:
+                extra, until = self._wander
+                kf.P[self.i_bias, self.i_bias] += extra * dt
+                if self.t + dt >= until:
+                    self._wander = None
         self.t += dt
         self._tidy(symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
 
@@ -853,6 +860,19 @@ class EKF:
                                              if self.i_bias is not None else 0.0))
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
+
+    def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
+        """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is
+        estimated (the orientation sensor is what is doubted), else the yaw's. The position
+        and body-velocity data then decide the heading, where the motion makes it observable
+        (spec 2.2.10). With ``wander`` (rad/√s) the bias random walk is that strong until
+        time ``until``: a bias found wandering once is let wander. Only a diagonal grows, so
+        P stays positive definite."""
+        i = self.i_bias if self.i_bias is not None else I_H
+        if self.kf.P[i, i] < sigma * sigma:
+            self.kf.P[i, i] = sigma * sigma
+        if self.i_bias is not None and wander > self.config.yaw_bias_noise:
+            self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
 
     def _reset_states(self, idx: tuple[int, ...], values: tuple[float, ...],
                       variance: float) -> None:

@@ -57,6 +57,7 @@ from mavhelm.nav.filter_safety import (
     Decision,
     FilterSafety,
 )
+from mavhelm.nav.heading_watch import DOUBT_SIGMA, WANDER_NOISE, WANDER_TIME, HeadingWatch
 from mavhelm.nav.lsq import LSQ, Fix
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
@@ -171,6 +172,7 @@ class Fusion:
         """Everything the navigator decided (spec 2.2.9), in order; ``new_decisions`` this
         step's."""
         self.new_decisions: list[Decision] = []
+        self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
         self.nis: dict[str, list[float]] = {}
         """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
         freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
@@ -379,6 +381,25 @@ class Fusion:
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
+            self._check_heading(t, r, verdict.accepted, verdict.d2 / max(verdict.dof, 1))
+        e = self.ekf.x
+        decision = self.heading_watch.motion(t, math.hypot(e[3, 0], e[4, 0]))
+        if decision is not None:
+            self._decide(decision)
+
+    def _check_heading(self, t: float, r: Reading, accepted: bool, nis: float) -> None:
+        """The heading watch on one reading's fate (see :mod:`mavhelm.nav.heading_watch`)."""
+        watch, ekf = self.heading_watch, self.ekf
+        assert ekf is not None
+        decision = None
+        if isinstance(r.obs, Range | Position):
+            decision = watch.position(t, nis)
+            if watch.doubted_at == t:
+                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
+        elif isinstance(r.obs, Yaw):
+            decision = watch.heading(t, r.sensor.name, accepted)
+        if decision is not None:
+            self._decide(decision)
 
     def _watch(self, fix: Fix) -> None:
         """The LSQ's checks of the EKF (spec 2.2.9) on one fix: a failure raises, a
@@ -390,7 +411,10 @@ class Fusion:
             return
         if decision.kind == FAILED:
             raise NavigationFailure(decision.why)
-        assert ekf is not None and decision.kind == REINITIALISED
+        if decision.kind != REINITIALISED:
+            self._decide(decision)
+            return
+        assert ekf is not None
         ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA), yaw=self._last_yaw)
         ekf.warnings.pop()  # its "re-initialised" line: the decision says it, and why
         self.reinitialisations += 1
@@ -466,9 +490,12 @@ class Fusion:
     def _check_lsq(self, horizon: float) -> None:
         if self.lsq is None:
             return
-        decision = self.safety.timed_out(horizon, self.lsq.observable)
-        if decision is not None:
+        decision = self.safety.timed_out(horizon, self.lsq.observable, self.lsq.last_attempt,
+                                         self.ekf is not None)
+        if decision is not None and decision.kind == FAILED:
             raise NavigationFailure(decision.why)
+        if decision is not None:
+            self._decide(decision)
 
     def _fail(self, why: str) -> None:
         self.failure = why

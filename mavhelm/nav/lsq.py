@@ -233,6 +233,8 @@ class LSQ:
         self.last_fix: Fix | None = None
         self.rejected = 0
         self.failures = 0
+        self.last_attempt: float | None = None
+        """When the window last held enough beacons to try a fix (observable), fix or not."""
         self._gates: dict[int, float] = {}
 
     def add(self, obs: Range) -> Fix | None:
@@ -244,6 +246,7 @@ class LSQ:
         if len({r.beacon for r in self._ranges}) < self.min_beacons:
             return None
         ranges = list(self._ranges)
+        self.last_attempt = obs.t
         last = self.last_fix
         recent = last is not None and obs.t - last.t <= 10 * self.window
         guess = (last.x, last.y) if last is not None and recent else None
