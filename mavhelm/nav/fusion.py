@@ -59,6 +59,7 @@ from mavhelm.nav.filter_safety import (
 )
 from mavhelm.nav.heading_watch import DOUBT_SIGMA, WANDER_NOISE, WANDER_TIME, HeadingWatch
 from mavhelm.nav.lsq import LSQ, Fix
+from mavhelm.nav.noise_match import NoiseMatch
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
     BEACON,
@@ -173,6 +174,7 @@ class Fusion:
         step's."""
         self.new_decisions: list[Decision] = []
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
+        self.noise = NoiseMatch()
         self.nis: dict[str, list[float]] = {}
         """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
         freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
@@ -377,15 +379,25 @@ class Fusion:
                 return
         if not kept:
             return
-        result = self.ekf.update([r.obs for r in kept])
+        result = self.ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
-            self._check_heading(t, r, verdict.accepted, verdict.d2 / max(verdict.dof, 1))
+            nis = verdict.d2 / max(verdict.dof, 1)
+            self._check_heading(t, r, verdict.accepted, nis)
+            if isinstance(r.obs, Range | Position):
+                self.noise.observe(_channel(r.obs, r.sensor.name), nis)
         e = self.ekf.x
         decision = self.heading_watch.motion(t, math.hypot(e[3, 0], e[4, 0]))
         if decision is not None:
             self._decide(decision)
+
+    def _weighted(self, obs: Observation, sensor: str) -> Observation:
+        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`)."""
+        if not isinstance(obs, Range | Position):
+            return obs
+        scale = self.noise.scale(_channel(obs, sensor))
+        return obs if scale == 1.0 else dataclasses.replace(obs, sigma=obs.sigma * scale)
 
     def _check_heading(self, t: float, r: Reading, accepted: bool, nis: float) -> None:
         """The heading watch on one reading's fate (see :mod:`mavhelm.nav.heading_watch`)."""
@@ -543,3 +555,8 @@ class Fusion:
         sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
+
+
+def _channel(obs: Range | Position, sensor: str) -> tuple[str, str]:
+    """What a noise scale is kept for: a sensor, and for ranges each beacon of it."""
+    return (sensor, obs.beacon if isinstance(obs, Range) else "")
