@@ -136,6 +136,12 @@ in a second. A boat starts a turn that fast (mavhelm sim: 0 → 0.8 rad/s in 0.3
 model (0.03) refused every compass and gyro reading through the first turn and never caught
 up. Plaza's robot, turning slowly, scores the same with either."""
 
+ALONG_TRACK: Final = 0.05
+"""Share of the XY acceleration noise along the bow, for a hull whose velocity follows its
+heading (FIXEDSIDESLIP): boats and rovers change speed far more gently than course."""
+ACROSS_TRACK: Final = 1.0
+"""... and across it (the turn not modelled by the yaw rate)."""
+
 # Default 1-σ sensor noise, used when an observation does not say (a SENSOR_* line's "~ noise").
 RANGE_SIGMA: Final = 1.0
 """m: a radio or acoustic range after its offset is removed (Plaza: MAD 0.8 m)."""
@@ -652,6 +658,8 @@ class EKF:
             pp, pv, _, vv = white_noise_block(dt)
             q_pp, q_pv, q_vv, q_walk = self._noise_templates
             kf.P += pp * q_pp + pv * q_pv + vv * q_vv + dt * q_walk
+            if self.config.velocity_follows_heading and self.config.mobile:
+                self._along_track_noise(kf.P, pp, pv, vv)
             if self._wander is not None and self.i_bias is not None:
                 extra, until = self._wander
                 kf.P[self.i_bias, self.i_bias] += extra * dt
@@ -659,6 +667,23 @@ class EKF:
                     self._wander = None
         self.t += dt
         self._tidy(symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
+
+    def _along_track_noise(self, P: np.ndarray, pp: float, pv: float, vv: float) -> None:
+        """A hull that moves along its bow changes its speed slowly and its course by
+        turning, which the prediction already models: its acceleration noise is
+        ``ALONG_TRACK`` of the dynamics' along the bow and ``ACROSS_TRACK`` across it, in
+        place of the same in every direction."""
+        q = self.config.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        h = float(self.kf.x[I_H, 0])
+        a = np.array([-math.sin(h), math.cos(h)])
+        c = np.array([math.cos(h), math.sin(h)])
+        delta = q * ((ALONG_TRACK - 1.0) * np.outer(a, a) + (ACROSS_TRACK - 1.0) * np.outer(c, c))
+        pos, vel = np.ix_([I_X, I_Y], [I_X, I_Y]), np.ix_([I_VX, I_VY], [I_VX, I_VY])
+        cross, cross_t = np.ix_([I_X, I_Y], [I_VX, I_VY]), np.ix_([I_VX, I_VY], [I_X, I_Y])
+        P[pos] += pp * delta
+        P[vel] += vv * delta
+        P[cross] += pv * delta
+        P[cross_t] += pv * delta
 
     # ------------------------------------------------------------------ update
 

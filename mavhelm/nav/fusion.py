@@ -385,7 +385,7 @@ class Fusion:
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
-            if isinstance(r.obs, Range | Position):
+            if isinstance(r.obs, Range | Position) and verdict.accepted:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
         e = self.ekf.x
         decision = self.heading_watch.motion(t, math.hypot(e[3, 0], e[4, 0]))
@@ -405,6 +405,8 @@ class Fusion:
         assert ekf is not None
         decision = None
         if isinstance(r.obs, Range | Position):
+            if not accepted:
+                return  # an outlier is the gate's business: a wrong heading shows first
             decision = watch.position(t, nis)
             if watch.doubted_at == t:
                 ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
