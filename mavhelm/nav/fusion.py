@@ -163,6 +163,8 @@ class Fusion:
         self.lsq: LSQ | None = (LSQ(beacons, window=config.lsq_window,
                                     estimate_offset=config.lsq_offset)
                                 if beacons and config.lsq else None)
+        if self.lsq is not None and config.fixed_tide is not None:
+            self.lsq.tide = config.fixed_tide.value
         self.safety = FilterSafety(config.divergence_distance, config.lsq_timeout,
                                    config.max_median_shift)
         self.ekf: EKF | None = None
@@ -361,7 +363,9 @@ class Fusion:
         fixes: list[Fix] = []
         if self.lsq is not None:
             for r in kept:
-                if isinstance(r.obs, Range):
+                if isinstance(r.obs, Yaw | Depth):
+                    self.lsq.add_pose(r.obs)
+                elif isinstance(r.obs, Range):
                     fix = self.lsq.add(r.obs)
                     if fix is not None:
                         fixes.append(fix)

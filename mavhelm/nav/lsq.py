@@ -33,6 +33,7 @@ keep ``window`` a few seconds, so a moving vehicle's fix is smeared by at most s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from collections.abc import Iterable, Sequence
@@ -40,7 +41,7 @@ from dataclasses import dataclass
 
 from scipy.stats import chi2
 
-from mavhelm.nav.ekf import Beacon, Range
+from mavhelm.nav.ekf import Beacon, Depth, Range, Yaw
 from mavhelm.nav.settings import LSQ_WINDOW
 
 
@@ -49,7 +50,10 @@ class Fix:
     """An LSQ position: ``t`` is the newest range's time, ``sigma`` the larger 1-σ of the
     position (from the normal equations and the ranges' noise), ``rms`` the residual RMS (m),
     ``chi2`` the sum of squared weighted residuals and ``dof`` its degrees of freedom,
-    ``offset`` the common range offset solved for (0 when not estimated)."""
+    ``offset`` the common range offset solved for (0 when not estimated); ``yaw`` (rad),
+    ``depth`` and ``z`` (m, up: tide − depth − the sensor's height) from the orientation and
+    depth readings of the same window, when there were any (the spec's five-state LSQ: X, Y,
+    Z, heading, tide)."""
 
     t: float
     x: float
@@ -61,6 +65,9 @@ class Fix:
     offset: float = 0.0
     chi2: float = 0.0
     dof: int = 0
+    yaw: float | None = None
+    depth: float | None = None
+    z: float | None = None
 
 
 _Row = tuple[float, float, float, float, float]
@@ -230,12 +237,38 @@ class LSQ:
         self.max_drops = max_drops
         self.estimate_offset = estimate_offset
         self._ranges: deque[Range] = deque()
+        self._poses: deque[Yaw | Depth] = deque()
+        self.tide = 0.0
+        """The tide (m) a depth is turned into Z with (FIXEDTIDE, else the surface at 0)."""
         self.last_fix: Fix | None = None
         self.rejected = 0
         self.failures = 0
         self.last_attempt: float | None = None
         """When the window last held enough beacons to try a fix (observable), fix or not."""
         self._gates: dict[int, float] = {}
+
+    def add_pose(self, obs: Yaw | Depth) -> None:
+        """An orientation or depth reading: proportional to the pose, it goes into the next
+        fix's yaw or depth (the LSQ's static model: averaged over the window)."""
+        if math.isfinite(obs.z):
+            self._poses.append(obs)
+            while obs.t - self._poses[0].t > self.window:
+                self._poses.popleft()
+
+    def _pose(self, fix: Fix) -> Fix:
+        while self._poses and fix.t - self._poses[0].t > self.window:
+            self._poses.popleft()
+        window = [p for p in self._poses if p.t <= fix.t]
+        self._poses = deque(p for p in self._poses if p.t > fix.t)
+        yaws = [p.z for p in window if isinstance(p, Yaw)]
+        depths = [p for p in window if isinstance(p, Depth)]
+        yaw = (math.atan2(sum(math.sin(a) for a in yaws), sum(math.cos(a) for a in yaws))
+               if yaws else None)
+        if not depths:
+            return dataclasses.replace(fix, yaw=yaw)
+        depth = sum(d.z for d in depths) / len(depths)
+        lever = sum(d.lever[2] for d in depths) / len(depths)
+        return dataclasses.replace(fix, yaw=yaw, depth=depth, z=self.tide - depth - lever)
 
     def add(self, obs: Range) -> Fix | None:
         if obs.beacon not in self.beacons or not math.isfinite(obs.z):
@@ -275,6 +308,7 @@ class LSQ:
         if fix is None:
             self.failures += 1
             return None
+        fix = self._pose(fix)
         self.last_fix = fix
         return fix
 

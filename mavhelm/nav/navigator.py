@@ -366,6 +366,12 @@ class Navigator(App):
             self._std["LSQ"] = (fix.sigma, fix.sigma)
             self._offer("LSQ_X", fix.x, fix.t, now)
             self._offer("LSQ_Y", fix.y, fix.t, now)
+            if fix.yaw is not None:
+                self._offer("LSQ_YAW", fix.yaw, fix.t, now)
+                self._offer("LSQ_HEADING", yaw_to_heading(fix.yaw), fix.t, now)
+            if fix.depth is not None and fix.z is not None:
+                self._offer("LSQ_DEPTH", fix.depth, fix.t, now)
+                self._offer("LSQ_Z", fix.z, fix.t, now)
         if estimate is not None:
             self._publish(estimate, now)
         for decision in fusion.new_decisions:
