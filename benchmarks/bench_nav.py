@@ -80,6 +80,7 @@ def _extra_tasks() -> str:
         XMax = {500 + k}
         YMin = -500
         YMax = 500
+        EventFlag = OutOfBox{k}
     }}
 """ for k in range(10)]
     headings = [f"""    Task = ConstantHeading
@@ -105,8 +106,9 @@ def tick_with_ekf() -> None:
     """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
     20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick."""
     nav_sim_rig = _rig()
+    tasks = _extra_tasks().replace("{", "{{").replace("}", "}}")  # MISSION is a format
     nav_sim_rig.MISSION = nav_sim_rig.MISSION.replace(
-        "    Task = OverallTimeOut", _extra_tasks() + "    Task = OverallTimeOut", 1)
+        "    Task = OverallTimeOut", tasks + "    Task = OverallTimeOut", 1)
 
     with tempfile.TemporaryDirectory() as folder:
         run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))

@@ -96,7 +96,7 @@ from mavhelm.companion.alog import read_alog  # noqa: E402
 from mavhelm.core.bus import Message  # noqa: E402
 from mavhelm.core.geodesy import Origin  # noqa: E402
 from mavhelm.core.mission import parse_mission  # noqa: E402
-from mavhelm.nav.replay import Accuracy, accuracy, replay  # noqa: E402
+from mavhelm.nav.replay import Accuracy, Consistency, accuracy, nees, replay  # noqa: E402
 
 LAT0, LON0 = LAT, LON                  # the mission's origin = the SITL's home
 HOME_HEADING = 90.0
@@ -337,6 +337,18 @@ class Log:
     def first(self, name: str) -> float | None:
         return next((m.time for m in self.messages if m.name == name), None)
 
+    def nees(self, t0: float = -math.inf, t1: float = math.inf) -> Consistency:
+        """NEES of the live EKF's position (EKF_X/Y with EKF_SIGMA_X/Y, the cross term not
+        posted: taken as 0) against the truth, within [t0, t1]."""
+        t, x, y = self.xy("EKF", t0, t1)
+        ts, sx = self.get("EKF_SIGMA_X")
+        _, sy = self.get("EKF_SIGMA_Y")
+        tt, tx, ty = self.xy("TRUTH")
+        if not len(t) or not len(ts) or not len(tt):
+            return Consistency(math.nan, math.nan, math.nan, 0)
+        vx, vy = np.interp(t, ts, sx) ** 2, np.interp(t, ts, sy) ** 2
+        return nees(t, x, y, vx, np.zeros(len(t)), vy, tt, tx, ty)
+
 
 def derivative(t: np.ndarray, v: np.ndarray, half_window: float) -> tuple[np.ndarray,
                                                                           np.ndarray]:
@@ -485,6 +497,7 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   raw GPS (GPS_X/Y)    vs truth: {gps}")
     print(f"   pNav    (NAV_X/Y)    vs truth: {nav}")
     print(f"   pNav EKF (EKF_X/Y)   vs truth: {ekf}")
+    print(f"   pNav EKF NEES (2 dof): {log.nees(t0, t1)}")
     print(f"   ArduPilot EKF3 (AP_X/Y, GLOBAL_POSITION_INT) vs truth: {ap}")
     posted = int(np.sum((log.get("GPS_X")[0] >= t0) & (log.get("GPS_X")[0] <= t1)))
     used = gps_fixes_used(folder / "companion", t0, t1)
@@ -676,6 +689,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
           f"{verdict})")
     print(f"     (EKF_X/Y during: {ekf_out}; NAV before: {nav_before}; after: {nav_after}; "
           f"LSQ fixes during the outage: {lsq_fixes})")
+    print(f"     pNav EKF NEES (2 dof) during the outage: {log.nees(g0, g1)}")
     print(f"   ArduPilot EKF3 (GLOBAL_POSITION_INT vs SIMSTATE, ground station) during the "
           f"outage: {drift}; error at the end {end_err:.1f} m")
     if lost:
