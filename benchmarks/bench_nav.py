@@ -119,8 +119,8 @@ def tick_with_ekf() -> None:
             seconds = run.run.companion.community.app_seconds
             nav, helm = seconds["pNav"], seconds["pHelm"]
             both = [a + b for a, b in zip(nav, helm, strict=True)]
-            tasks = len(run.run.companion.helm.tasks)
-            print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {tasks} "
+            count = len(run.run.companion.helm.tasks)
+            print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {count} "
                   "helm tasks (10 Hz tick)")
             print(f"  pNav          {percentiles_us(nav)}")
             print(f"  helm+nav tick {percentiles_us(both)}")
@@ -139,6 +139,7 @@ def plaza_replay() -> None:
                         str(alog), "--mission", str(mission)], check=True,
                        capture_output=True)
         block = load_mission(mission).process("pNav")
+        assert block is not None
         messages = read_alog(alog)
         walls = []
         for _ in range(3):  # a shared machine: the best of three is the code's own speed

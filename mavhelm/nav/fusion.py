@@ -360,17 +360,7 @@ class Fusion:
         for r in kept:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
-        fixes: list[Fix] = []
-        if self.lsq is not None:
-            for r in kept:
-                if isinstance(r.obs, Yaw | Depth):
-                    self.lsq.add_pose(r.obs)
-                elif isinstance(r.obs, Range):
-                    fix = self.lsq.add(r.obs)
-                    if fix is not None:
-                        fixes.append(fix)
-        self.new_fixes.extend(fixes)
-        self.fixes += len(fixes)
+        fixes = self._feed_lsq(kept)
         if self.ekf is not None:
             self.ekf.advance(t)
         for fix in fixes:
@@ -381,9 +371,30 @@ class Fusion:
                 for r in kept:
                     self._log(r, "waiting")
                 return
-        if not kept:
-            return
-        result = self.ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
+        if kept:
+            self._update(t, kept)
+
+    def _feed_lsq(self, kept: list[Reading]) -> list[Fix]:
+        """The slice's pose-proportional readings into the LSQ; the fixes it makes."""
+        fixes: list[Fix] = []
+        if self.lsq is None:
+            return fixes
+        for r in kept:
+            if isinstance(r.obs, Yaw | Depth):
+                self.lsq.add_pose(r.obs)
+            elif isinstance(r.obs, Range):
+                fix = self.lsq.add(r.obs)
+                if fix is not None:
+                    fixes.append(fix)
+        self.new_fixes.extend(fixes)
+        self.fixes += len(fixes)
+        return fixes
+
+    def _update(self, t: float, kept: list[Reading]) -> None:
+        """The EKF's update on a slice, each reading's fate logged and watched."""
+        ekf = self.ekf
+        assert ekf is not None
+        result = ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
@@ -391,8 +402,7 @@ class Fusion:
             self._check_heading(t, r, verdict.accepted, nis)
             if isinstance(r.obs, Range | Position) and verdict.accepted:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
-        e = self.ekf.x
-        decision = self.heading_watch.motion(t, math.hypot(e[3, 0], e[4, 0]))
+        decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
         if decision is not None:
             self._decide(decision)
 
