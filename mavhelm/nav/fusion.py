@@ -57,7 +57,14 @@ from mavhelm.nav.filter_safety import (
     Decision,
     FilterSafety,
 )
-from mavhelm.nav.heading_watch import DOUBT_SIGMA, WANDER_NOISE, WANDER_TIME, HeadingWatch
+from mavhelm.nav.heading_watch import (
+    DOUBT_SIGMA,
+    HEADING_DOUBT_SCALE,
+    HEADING_MAX_SCALE,
+    WANDER_NOISE,
+    WANDER_TIME,
+    HeadingWatch,
+)
 from mavhelm.nav.lsq import LSQ, Fix
 from mavhelm.nav.noise_match import NoiseMatch
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
@@ -177,6 +184,9 @@ class Fusion:
         self.new_decisions: list[Decision] = []
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
         self.noise = NoiseMatch()
+        self._heading_scale = (1.0, 0.0)
+        """(σ scale of the heading readings, until when): a doubted heading without a bias
+        state to absorb its error is down-weighted."""
         self.nis: dict[str, list[float]] = {}
         """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
         freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
@@ -407,7 +417,14 @@ class Fusion:
             self._decide(decision)
 
     def _weighted(self, obs: Observation, sensor: str) -> Observation:
-        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`)."""
+        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`); a
+        heading with the doubt's scale, while it lasts."""
+        if isinstance(obs, Yaw):
+            scale, until = self._heading_scale
+            if scale == 1.0 or obs.t > until:
+                self._heading_scale = (1.0, 0.0)
+                return obs
+            return dataclasses.replace(obs, sigma=obs.sigma * scale)
         if not isinstance(obs, Range | Position):
             return obs
         scale = self.noise.scale(_channel(obs, sensor))
@@ -424,6 +441,11 @@ class Fusion:
             decision = watch.position(t, nis)
             if watch.doubted_at == t:
                 ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
+                if ekf.i_bias is None:
+                    # no bias state to take the error: the heading itself is down-weighted
+                    scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE,
+                                HEADING_MAX_SCALE)
+                    self._heading_scale = (scale, t + WANDER_TIME)
         elif isinstance(r.obs, Yaw):
             decision = watch.heading(t, r.sensor.name, accepted)
         if decision is not None:

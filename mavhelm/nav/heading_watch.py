@@ -9,7 +9,9 @@ shows in the data:
   ranges or fixes beyond ``DOUBT_NIS``): a wrong heading dead-reckons the vehicle away from
   where the ranges put it. The heading is then doubted: its uncertainty (the bias state's,
   when estimated) is raised to ``DOUBT_SIGMA``, so the position and body-velocity data
-  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``WANDER_TIME``.
+  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``WANDER_TIME``;
+  without a bias state the heading readings' σ is scaled up instead (``HEADING_DOUBT_SCALE``
+  a doubt) for that time.
 - **The heading contradicts the motion** (its readings rejected for ``CONTRADICTION_TIME``):
   it is down-weighted to nothing (rejected) and reported, and reported again when it agrees.
 - **Unobservable**: the bias is seen only through motion (body velocity against position);
@@ -44,6 +46,11 @@ a bias that wandered once may wander on. Measured on Plaza1 with the bias wander
 1e-3 alone, 0.84 m with this; the recording without the fault stays at 0.47 m."""
 WANDER_TIME: Final = 300.0
 """s: how long after the last doubt the bias is let wander so."""
+HEADING_DOUBT_SCALE: Final = 3.0
+"""Without a bias state, each doubt scales the heading readings' σ by this (for
+``WANDER_TIME``): the motion then decides the heading, as a bias state would let it."""
+HEADING_MAX_SCALE: Final = 100.0
+"""... up to this (a 0.5° compass counted as 50°: still a tie-break, never silenced)."""
 DOUBT_REPORT_GAP: Final = 30.0
 """s: doubts closer than this are one episode, reported once."""
 CONTRADICTION_TIME: Final = 3.0
