@@ -214,3 +214,27 @@ def test_the_navigator_posts_its_decisions_and_the_position_sigma() -> None:
     # the 1-σ of that very value: metres, since a still vehicle cannot tell its position from
     # the beacons' range offsets the filter is learning
     assert x[-1].time in std and 0.0 < std[x[-1].time] < 5.0
+
+
+def test_a_lost_ekf_goes_off_line_and_the_lsq_boots_it_again() -> None:
+    """MaxEKFPositionUncertainty with an LSQ running: the original's reset, not a failure."""
+    from mavhelm.nav.ekf import EKFConfig, Range
+    from mavhelm.nav.filter_safety import BOOTED, LOST
+    from mavhelm.nav.fusion import Fusion, FusionConfig, Start
+    from mavhelm.nav.sensors import Reading, SensorSpec
+
+    beacons = (Beacon("1", 0.0, 0.0), Beacon("2", 100.0, 0.0), Beacon("3", 0.0, 100.0))
+    fusion = Fusion(FusionConfig(ekf=EKFConfig(max_position_sigma=10.0), beacons=beacons,
+                                 start=Start(30.0, 40.0, sigma_xy=20.0), lsq_timeout=None))
+    ranger = SensorSpec("RANGE", "R", "ranger")
+    for k in range(60):
+        t = 0.5 * k
+        b = beacons[k % 3]
+        fusion.add(Reading(ranger, Range(t, b.name, math.hypot(30.0 - b.x, 40.0 - b.y), 0.3)),
+                   t)
+        fusion.step(t)
+    kinds = [d.kind for d in fusion.decisions]
+    assert kinds[:3] == [BOOTED, LOST, BOOTED] and fusion.failure is None
+    assert "(MaxEKFPositionUncertainty)" in fusion.decisions[1].why
+    assert "EKF off-line until the LSQ boots it again" in fusion.decisions[1].why
+    assert fusion.ekf is not None and fusion.ekf.position_sigma() < 10.0

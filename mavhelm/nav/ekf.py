@@ -940,7 +940,7 @@ class EKF:
         if not sigma <= cfg.max_position_sigma:
             self.failure = PositionLost(
                 f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
-                f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
+                f"{cfg.max_position_sigma:g} m (MaxEKFPositionUncertainty) at t={self.t:.2f}")
             raise self.failure
 
     def _healthy(self) -> bool:
