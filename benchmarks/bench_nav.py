@@ -1,5 +1,7 @@
-"""Benchmark: pNav's filters — EKF updates per second, the helm+nav tick with the EKF running,
-and the replay speed-up on the real Plaza1 log (target: a one-hour log of that size in < 10 s).
+"""Benchmark: pNav's filters — EKF predict+update time (target ≤ 50 µs), the companion tick
+with the EKF on GPS + compass + DVL + gyro and 20 helm tasks (target p99 ≤ 1 ms), the replay
+of the real Plaza1 log (target: a one-hour log of that density in ≤ 5 s) and the Plaza1 fault
+variants (``mavhelm nav replay --fault all``: RMS, NEES and decisions of each).
 
 Prints figures; asserts nothing (a shared machine's speed is not a test result).
 Run: ``make bench`` or ``.venv/bin/python -m benchmarks.bench_nav``.
@@ -19,6 +21,7 @@ import numpy as np
 from mavhelm.companion.alog import read_alog
 from mavhelm.core.mission import load_mission
 from mavhelm.nav.ekf import EKF, Beacon, BodyVelocity, EKFConfig, Range, Yaw
+from mavhelm.nav.faults import FAULTS, applies, layout_of, with_fault
 from mavhelm.nav.replay import replay
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,11 +52,53 @@ def ekf_updates() -> None:
           f"({1e6 * seconds / n:.0f} us each)")
 
 
+DEAD_RECKONING = """
+    X = GPS @ 2, EKF @ 2
+    Y = GPS @ 2, EKF @ 2
+    Heading = HDG @ 1, INS @ 1
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
+    SENSOR_BODY_VEL    = DVL -> dvl @ 0,0,-0.3 ~ 0.02, 0.02
+    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
+"""
+"""The simulator tests' dead-reckoning pNav block (GPS, compass, DVL, gyro)."""
+
+EXTRA_TASKS = 17
+"""Tasks added to the box patrol's three (XYPattern, OverallTimeOut, EndMission): 20 in all,
+every one running each tick — safety boxes that watch NAV_X/NAV_Y, and constant headings at
+a priority that loses the arbitration but still votes."""
+
+
+def _extra_tasks() -> str:
+    boxes = [f"""    Task = LimitBox
+    {{
+        Name = Box{k}
+        Priority = 1
+        XMin = {-500 - k}
+        XMax = {500 + k}
+        YMin = -500
+        YMax = 500
+        EventFlag = OutOfBox{k}
+    }}
+""" for k in range(10)]
+    headings = [f"""    Task = ConstantHeading
+    {{
+        Name = Heading{k}
+        Priority = 9
+        Heading = {40 * k}
+        TimeOut = 3000
+    }}
+""" for k in range(EXTRA_TASKS - 10)]
+    return "".join(boxes + headings)
+
+
 def tick_with_ekf() -> None:
-    """The figure-of-eight-free box patrol of the simulator tests, with the EKF on GPS,
-    compass, DVL and gyro: pNav's and pHelm's share of each companion tick."""
+    """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
+    20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick."""
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
+
+    nav_sim_rig.BOX = nav_sim_rig.BOX + _extra_tasks().replace("%", "%%")
 
     with tempfile.TemporaryDirectory() as folder:
         run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))
@@ -64,7 +109,9 @@ def tick_with_ekf() -> None:
             seconds = run.run.companion.community.app_seconds
             nav, helm = seconds["pNav"], seconds["pHelm"]
             both = [a + b for a, b in zip(nav, helm, strict=True)]
-            print("box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro (10 Hz tick)")
+            count = len(run.run.companion.helm.tasks)
+            print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {count} "
+                  "helm tasks (10 Hz tick)")
             print(f"  pNav          {percentiles_us(nav)}")
             print(f"  helm+nav tick {percentiles_us(both)}")
             print(f"  whole companion tick {percentiles_us(run.run.companion_tick_seconds)}")
@@ -82,6 +129,7 @@ def plaza_replay() -> None:
                         str(alog), "--mission", str(mission)], check=True,
                        capture_output=True)
         block = load_mission(mission).process("pNav")
+        assert block is not None
         messages = read_alog(alog)
         walls = []
         for _ in range(3):  # a shared machine: the best of three is the code's own speed
@@ -97,9 +145,36 @@ def plaza_replay() -> None:
         print(f"  accuracy: {result.accuracy('NAV')}")
 
 
+def plaza_faults() -> None:
+    """Each fault of the library on Plaza1: what ``mavhelm nav replay --fault`` reports."""
+    if not PLAZA.exists():
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        alog, mission = Path(folder) / "p.alog", Path(folder) / "p.moos"
+        subprocess.run([sys.executable, str(REPO / "examples/plaza/convert.py"), str(PLAZA),
+                        str(alog), "--mission", str(mission)], check=True,
+                       capture_output=True)
+        block = load_mission(mission).process("pNav")
+        assert block is not None
+        messages = read_alog(alog)
+        layout = layout_of(block)
+        print("Plaza1 fault variants (NAV position against truth; NEES of the EKF position):")
+        for name in ["none", *(f for f in FAULTS if applies(f, layout))]:
+            log = messages if name == "none" else with_fault(name, messages, layout)
+            result = replay(block, log)
+            fusion = result.navigator.fusion
+            assert fusion is not None
+            made = [d.kind for d in fusion.decisions]
+            decided = ", ".join(f"{k} {made.count(k)}" for k in dict.fromkeys(made))
+            print(f"  {name:15s} {result.accuracy('NAV')}; NEES mean "
+                  f"{result.consistency().mean:.2f}; {decided}"
+                  + (f"; FAILURE {result.failure}" if result.failure else ""))
+
+
 def main() -> None:
     ekf_updates()
     plaza_replay()
+    plaza_faults()
     tick_with_ekf()
 
 

@@ -39,7 +39,7 @@ companion on two cores once the instruments run too: it fell 90 autopilot s behi
    SIMSTATE/SIM_STATE; the companion reads them with iSerial blocks and pNav fuses GPS +
    compass + DVL + ATTITUDE gyro + ranges (``X = GPS @ 2, EKF @ 2``; the sim tests' lines, with
    ``EKF_XY_DYNAMICS``/``EKF_YAW_DYNAMICS 10`` for the real hull's turns, ``EKF_MAX_SPEED 15``,
-   and ``LSQ_TIMEOUT NEVER``: the LSQ's static model seldom fixes on a boat moving at 4 m/s
+   and ``LSQTimeOut NEVER``: the LSQ's static model seldom fixes on a boat moving at 4 m/s
    with round-robin ranges, one beacon each 0.5 s, and its 30 s time-out once declared
    navigation failure 5 s into the outage with the EKF within 0.5 m). The SITL runs with
    ``FS_EKF_ACTION 0`` (else ArduPilot's EKF failsafe takes the boat from GUIDED when its GPS
@@ -79,7 +79,7 @@ from mavhelm.companion.alog import read_alog
 from mavhelm.core.bus import Message
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
-from mavhelm.nav.replay import Accuracy, accuracy, replay
+from mavhelm.nav.replay import Accuracy, Consistency, accuracy, nees, replay
 from tests.support.ardupilot import (
     SKIP_REASON,
     CompanionProcess,
@@ -151,7 +151,7 @@ NAV_OUTAGE = """\
     EKF_XY_DYNAMICS    = 10
     EKF_YAW_DYNAMICS   = 10
     EKF_MAX_SPEED      = 15
-    LSQ_TIMEOUT        = NEVER
+    LSQTimeOut         = NEVER
 """ + "".join(f"    BEACON = {i} @ {x:g},{y:g},{z:g}\n" for i, x, y, z in BEACONS)
 
 INSTRUMENTS = {"heading": ("HDG", "HDT"), "dvl": ("DVL", "PMVHDVL"),
@@ -331,6 +331,18 @@ class Log:
     def first(self, name: str) -> float | None:
         return next((m.time for m in self.messages if m.name == name), None)
 
+    def nees(self, t0: float = -math.inf, t1: float = math.inf) -> Consistency:
+        """NEES of the live EKF's position (EKF_X/Y with EKF_SIGMA_X/Y, the cross term not
+        posted: taken as 0) against the truth, within [t0, t1]."""
+        t, x, y = self.xy("EKF", t0, t1)
+        ts, sx = self.get("EKF_SIGMA_X")
+        _, sy = self.get("EKF_SIGMA_Y")
+        tt, tx, ty = self.xy("TRUTH")
+        if not len(t) or not len(ts) or not len(tt):
+            return Consistency(math.nan, math.nan, math.nan, 0)
+        vx, vy = np.interp(t, ts, sx) ** 2, np.interp(t, ts, sy) ** 2
+        return nees(t, x, y, vx, np.zeros(len(t)), vy, tt, tx, ty)
+
 
 def derivative(t: np.ndarray, v: np.ndarray, half_window: float) -> tuple[np.ndarray,
                                                                           np.ndarray]:
@@ -479,6 +491,7 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   raw GPS (GPS_X/Y)    vs truth: {gps}")
     print(f"   pNav    (NAV_X/Y)    vs truth: {nav}")
     print(f"   pNav EKF (EKF_X/Y)   vs truth: {ekf}")
+    print(f"   pNav EKF NEES (2 dof): {log.nees(t0, t1)}")
     print(f"   ArduPilot EKF3 (AP_X/Y, GLOBAL_POSITION_INT) vs truth: {ap}")
     posted = int(np.sum((log.get("GPS_X")[0] >= t0) & (log.get("GPS_X")[0] <= t1)))
     used = gps_fixes_used(folder / "companion", t0, t1)
@@ -638,7 +651,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   instruments: mavhelm instruments --truth tcp:127.0.0.1:{sitl.ports.serial2} "
           f"(heading HDT, DVL, radio ranges to 3 beacons) driven by the SITL's SIMSTATE")
     print("   pNav: GPS + HDG compass + DVL + ATTITUDE gyro + RANGE radio, EKF_XY/YAW_DYNAMICS 10, "
-          "LSQ_TIMEOUT NEVER; X/Y = GPS @ 2, EKF @ 2; "
+          "LSQTimeOut NEVER; X/Y = GPS @ 2, EKF @ 2; "
           f"wall {wall:.1f} s; companion tick {tick_period(log, g0, g1)}")
     print(f"   SIM_GPS1_ENABLE 0 at autopilot {off_ms / 1000:.1f} s, 1 at {on_ms / 1000:.1f} s "
           f"({(on_ms - off_ms) / 1000:.1f} s); the companion had no GPS_X for "
@@ -648,6 +661,7 @@ def run_outage(binary: Path, folder: Path, args: argparse.Namespace) -> None:
           f"{verdict})")
     print(f"     (EKF_X/Y during: {ekf_out}; NAV before: {nav_before}; after: {nav_after}; "
           f"LSQ fixes during the outage: {lsq_fixes})")
+    print(f"     pNav EKF NEES (2 dof) during the outage: {log.nees(g0, g1)}")
     print(f"   ArduPilot EKF3 (GLOBAL_POSITION_INT vs SIMSTATE, ground station) during the "
           f"outage: {drift}; error at the end {end_err:.1f} m")
     if lost:

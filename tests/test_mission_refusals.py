@@ -122,7 +122,7 @@ FOUND = [
      "'GPS gps @ 0,0,0 ~ 3'"),
     ("pNav", "SENSOR_XY = GPS->gps @ 0,0,0 ~ 3, 4",
      "SENSOR_XY: at most 1 noise value(s) (m), got 2"),
-    ("pNav", "LSQ_TIMEOUT = inf", "LSQ_TIMEOUT must be a finite number, got 'inf'"),
+    ("pNav", "LSQTimeOut = inf", "LSQTimeOut must be a finite number, got 'inf'"),
     ("pNav", "BEACON = 1 @ 5,nan,0", "BEACON position must be a finite number, got 'nan'"),
     ("pNav", "FIXEDDEPTH = 0", "FIXEDDEPTH expects value @ sigma (m), got '0'"),
     ("iMAVLink", "Actuation = rc_override_please",

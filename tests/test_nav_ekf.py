@@ -32,8 +32,9 @@ from mavhelm.nav.ekf import (
     odometry,
     white_noise_block,
 )
+from mavhelm.nav.filter_safety import DivergenceMonitor
 from mavhelm.nav.fusion import Start
-from mavhelm.nav.lsq import LSQ, DivergenceMonitor, Fix, solve
+from mavhelm.nav.lsq import LSQ, Fix, solve
 from mavhelm.nav.replay import accuracy
 from tests.support.fusion_rig import replay, track_accuracy
 

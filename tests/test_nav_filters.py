@@ -116,7 +116,7 @@ def test_gps_and_compass_give_a_smoother_position_and_speed_from_positions_only(
 
 def test_an_unobservable_position_is_a_navigation_failure_that_ends_the_mission() -> None:
     rig = Rig(GPS_COMPASS + "  EKF_X = 0\n  EKF_Y = 0\n  EKF_SIGMA_XY = 5\n"
-                            "  EKF_MAX_SIGMA_XY = 20\n")
+                            "  MaxEKFPositionUncertainty = 20\n")
     for _ in range(1200):
         rig.post("INS_YAW", 0.3)  # a compass alone: the position only grows uncertain
         rig.tick()

@@ -80,7 +80,7 @@ LBL = """
     EKF_SIGMA_XY = 25
     EKF_RANGE_SCALE = false
     EKF_BEACON_OFFSETS = false
-    LSQ_TIMEOUT = NEVER
+    LSQTimeOut = NEVER
 """
 """An AUV's kit: compass, gyro, DVL and an LBL transceiver, the start known to 25 m (given
 19 m off): the LBL replies are what corrects it. Surveyed transponders with known turn-around
@@ -164,9 +164,9 @@ def test_a_diverged_ekf_is_reinitialised_from_the_lsq(tmp_path):
 
 def test_an_unobservable_setup_is_a_navigation_failure_and_ends_the_mission(tmp_path):
     """Ranges to two beacons of the three declared: the LSQ never has a fix, and after
-    LSQ_TIMEOUT the navigator declares the failure; EndMission takes the helm."""
+    LSQTimeOut the navigator declares the failure; EndMission takes the helm."""
     nav = (RANGES.replace("    SENSOR_XY          = GPS -> gps ~ 2\n", "")
-           + "    EKF_X = 0\n    EKF_Y = 0\n    EKF_SIGMA_XY = 2\n    LSQ_TIMEOUT = 20\n")
+           + "    EKF_X = 0\n    EKF_Y = 0\n    EKF_SIGMA_XY = 2\n    LSQTimeOut = 20\n")
     from tests.support.nav_sim_rig import BEACONS
 
     run = start(nav, ranging="radio", dvl=False, tmp_path=tmp_path, beacons=BEACONS[:2],

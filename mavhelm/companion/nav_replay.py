@@ -18,6 +18,7 @@ from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.tlog import bus_messages_from_tlog
 from mavhelm.core.errors import SettingError
 from mavhelm.core.mission import MissionError, load_mission
+from mavhelm.nav.faults import FAULTS, applies, layout_of, with_fault
 from mavhelm.nav.replay import ReplayResult, replay
 
 
@@ -29,13 +30,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nav-log", default=None,
                         help="folder for the .olog/.xlog (default: beside the log)")
     parser.add_argument("--no-nav-log", action="store_true", help="write no .olog/.xlog")
+    parser.add_argument("--fault", action="append", default=[], choices=[*FAULTS, "all"],
+                        help="also replay the log with this fault made on it (repeatable; "
+                             "all: every fault that applies), each with its own report")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the faults (default 1)")
 
 
 def replay_files(mission_path: str | Path, log_path: str | Path, *, period: float = 0.1,
-                 nav_log: str | Path | None = None, write_nav_log: bool = True
-                 ) -> tuple[ReplayResult, float]:
-    """Replay ``log_path`` through the mission's pNav; returns the result and the wall
-    seconds the replay took (reading the log not included)."""
+                 nav_log: str | Path | None = None, write_nav_log: bool = True,
+                 fault: str | None = None, seed: int = 1) -> tuple[ReplayResult, float]:
+    """Replay ``log_path`` through the mission's pNav, with ``fault`` made on it if given;
+    returns the result and the wall seconds the replay took (reading the log not
+    included). The nav logs of a fault's run are named after it."""
     mission = load_mission(mission_path)
     block = mission.process("pNav")
     if block is None:
@@ -45,11 +51,13 @@ def replay_files(mission_path: str | Path, log_path: str | Path, *, period: floa
         messages = bus_messages_from_tlog(log_path, mission)
     else:
         messages = read_alog(log_path)
+    if fault is not None:
+        messages = with_fault(fault, messages, layout_of(block), seed)
     sink = None
     if write_nav_log:
+        stem = f"{log_path.stem}_replay" + (f"_{fault}" if fault else "")
         try:
-            sink = NavLogFiles(nav_log or log_path.parent, f"{log_path.stem}_replay",
-                               timestamp=False)
+            sink = NavLogFiles(nav_log or log_path.parent, stem, timestamp=False)
         except (OSError, ValueError) as exc:
             raise SettingError("--nav-log" if nav_log else "the log's folder",
                                "the replay's nav logs", exc) from None
@@ -66,10 +74,32 @@ def run(args: argparse.Namespace) -> int:
     if not args.period > 0:
         print("mavhelm nav replay: --period must be > 0", flush=True)
         return 2
-    result, seconds = replay_files(args.mission, args.log, period=args.period,
-                                   nav_log=args.nav_log, write_nav_log=not args.no_nav_log)
-    for line in result.report():
-        print(line)
-    speedup = result.span / seconds if seconds > 0 else float("inf")
-    print(f"replay took {seconds:.2f} s of wall time ({speedup:.0f}x the log's duration)")
-    return 0 if result.failure is None else 1
+    faults = _faults(args)
+    worst = 0
+    for fault in faults:
+        if fault is not None:
+            print(f"\n== fault {fault} ==")
+        result, seconds = replay_files(args.mission, args.log, period=args.period,
+                                       nav_log=args.nav_log,
+                                       write_nav_log=not args.no_nav_log, fault=fault,
+                                       seed=args.seed)
+        for line in result.report():
+            print(line)
+        speedup = result.span / seconds if seconds > 0 else float("inf")
+        print(f"replay took {seconds:.2f} s of wall time ({speedup:.0f}x the log's duration)")
+        worst = max(worst, 0 if result.failure is None else 1)
+    return worst
+
+
+def _faults(args: argparse.Namespace) -> list[str | None]:
+    """The runs asked for: the log as recorded, then each fault (``all``: those that apply
+    to the mission)."""
+    if not args.fault:
+        return [None]
+    names = list(dict.fromkeys(args.fault))
+    if "all" in names:
+        mission = load_mission(args.mission)
+        block = mission.process("pNav")
+        layout = layout_of(block) if block is not None else None
+        names = [f for f in FAULTS if layout is not None and applies(f, layout)]
+    return [None, *names]

@@ -97,7 +97,6 @@ from scipy.stats import chi2
 from mavhelm.nav.settings import (
     EKF_BEACON_OFFSETS,
     EKF_GATE,
-    EKF_MAX_SIGMA_XY,
     EKF_MAX_SPEED,
     EKF_MOBILE,
     EKF_RANGE_SCALE,
@@ -109,6 +108,7 @@ from mavhelm.nav.settings import (
     EKF_YAW_BIAS,
     EKF_YAW_DYNAMICS,
     EKF_Z_DYNAMICS,
+    MAX_EKF_POSITION_UNCERTAINTY,
     RADIANS_PER_DEGREE,
     check_config,
     setting,
@@ -136,6 +136,12 @@ in a second. A boat starts a turn that fast (mavhelm sim: 0 → 0.8 rad/s in 0.3
 model (0.03) refused every compass and gyro reading through the first turn and never caught
 up. Plaza's robot, turning slowly, scores the same with either."""
 
+ALONG_TRACK: Final = 0.05
+"""Share of the XY acceleration noise along the bow, for a hull whose velocity follows its
+heading (FIXEDSIDESLIP): boats and rovers change speed far more gently than course."""
+ACROSS_TRACK: Final = 1.0
+"""... and across it (the turn not modelled by the yaw rate)."""
+
 # Default 1-σ sensor noise, used when an observation does not say (a SENSOR_* line's "~ noise").
 RANGE_SIGMA: Final = 1.0
 """m: a radio or acoustic range after its offset is removed (Plaza: MAD 0.8 m)."""
@@ -162,6 +168,12 @@ NO_LEVER: Final[Lever] = (0.0, 0.0, 0.0)
 class NavigationFailure(Exception):
     """The filter's uncertainty passed a configured limit (spec 2.2.11): it is off-line now,
     and the navigator must declare a navigation failure (``NAVIGATION_FAILURE``, EndMission)."""
+
+
+class PositionLost(NavigationFailure):
+    """The position 1-σ passed ``max_position_sigma`` (MaxEKFPositionUncertainty): the EKF is
+    lost. The navigator decides what follows: a re-boot from the LSQ when one runs, else a
+    navigation failure."""
 
 
 @dataclass(frozen=True)
@@ -209,8 +221,8 @@ class EKFConfig:
       (0.999: a lone observation is refused beyond 3.3 σ).
     - ``max_speed`` (m/s, EKF_MAX_SPEED), ``max_yaw_rate`` (rad/s): rate states beyond these
       are reset.
-    - ``max_position_sigma`` (m, EKF_MAX_SIGMA_XY): larger 1-σ of the position is a
-      navigation failure.
+    - ``max_position_sigma`` (m, MaxEKFPositionUncertainty): larger 1-σ of the position and
+      the filter is lost (:class:`PositionLost`).
     - ``mobile`` (EKF_MOBILE): False for a static vehicle (spec 2.2.2): no rate states, the
       pose a random walk of the dynamics' strength.
     - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
@@ -241,7 +253,7 @@ class EKFConfig:
     gate_probability: float = setting(EKF_GATE)
     max_speed: float = setting(EKF_MAX_SPEED)
     max_yaw_rate: float = math.pi
-    max_position_sigma: float = setting(EKF_MAX_SIGMA_XY)
+    max_position_sigma: float = setting(MAX_EKF_POSITION_UNCERTAINTY)
     mobile: bool = setting(EKF_MOBILE)
     estimate_z: bool = False
     z_dynamics: float = setting(EKF_Z_DYNAMICS)
@@ -489,6 +501,8 @@ class EKF:
         self._last_dt = 0.0
         self.kf.F = np.eye(self.dim)
         self.kf.Q = np.zeros((self.dim, self.dim))
+        self._wander: tuple[float, float] | None = None
+        """(extra bias variance rate, until when) after a heading doubt."""
         self._eye = np.eye(self.dim)
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
@@ -644,8 +658,32 @@ class EKF:
             pp, pv, _, vv = white_noise_block(dt)
             q_pp, q_pv, q_vv, q_walk = self._noise_templates
             kf.P += pp * q_pp + pv * q_pv + vv * q_vv + dt * q_walk
+            if self.config.velocity_follows_heading and self.config.mobile:
+                self._along_track_noise(kf.P, pp, pv, vv)
+            if self._wander is not None and self.i_bias is not None:
+                extra, until = self._wander
+                kf.P[self.i_bias, self.i_bias] += extra * dt
+                if self.t + dt >= until:
+                    self._wander = None
         self.t += dt
         self._tidy(symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
+
+    def _along_track_noise(self, P: np.ndarray, pp: float, pv: float, vv: float) -> None:
+        """A hull that moves along its bow changes its speed slowly and its course by
+        turning, which the prediction already models: its acceleration noise is
+        ``ALONG_TRACK`` of the dynamics' along the bow and ``ACROSS_TRACK`` across it, in
+        place of the same in every direction."""
+        q = self.config.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
+        h = float(self.kf.x[I_H, 0])
+        a = np.array([-math.sin(h), math.cos(h)])
+        c = np.array([math.cos(h), math.sin(h)])
+        delta = q * ((ALONG_TRACK - 1.0) * np.outer(a, a) + (ACROSS_TRACK - 1.0) * np.outer(c, c))
+        pos, vel = np.ix_([I_X, I_Y], [I_X, I_Y]), np.ix_([I_VX, I_VY], [I_VX, I_VY])
+        cross, cross_t = np.ix_([I_X, I_Y], [I_VX, I_VY]), np.ix_([I_VX, I_VY], [I_X, I_Y])
+        P[pos] += pp * delta
+        P[vel] += vv * delta
+        P[cross] += pv * delta
+        P[cross_t] += pv * delta
 
     # ------------------------------------------------------------------ update
 
@@ -848,6 +886,19 @@ class EKF:
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
 
+    def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
+        """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is
+        estimated (the orientation sensor is what is doubted), else the yaw's. The position
+        and body-velocity data then decide the heading, where the motion makes it observable
+        (spec 2.2.10). With ``wander`` (rad/√s) the bias random walk is that strong until
+        time ``until``: a bias found wandering once is let wander. Only a diagonal grows, so
+        P stays positive definite."""
+        i = self.i_bias if self.i_bias is not None else I_H
+        if self.kf.P[i, i] < sigma * sigma:
+            self.kf.P[i, i] = sigma * sigma
+        if self.i_bias is not None and wander > self.config.yaw_bias_noise:
+            self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
+
     def _reset_states(self, idx: tuple[int, ...], values: tuple[float, ...],
                       variance: float) -> None:
         x, P = self.kf.x, self.kf.P
@@ -887,9 +938,9 @@ class EKF:
                                  f"{cfg.max_yaw_rate:.2f} rad/s: yaw rate state reset to zero")
         sigma = self.position_sigma()
         if not sigma <= cfg.max_position_sigma:
-            self.failure = NavigationFailure(
+            self.failure = PositionLost(
                 f"EKF position 1-sigma {sigma:.1f} m exceeds the limit "
-                f"{cfg.max_position_sigma:g} m at t={self.t:.2f}")
+                f"{cfg.max_position_sigma:g} m (MaxEKFPositionUncertainty) at t={self.t:.2f}")
             raise self.failure
 
     def _healthy(self) -> bool:

@@ -43,11 +43,30 @@ from mavhelm.nav.ekf import (
     NavigationFailure,
     Observation,
     Position,
+    PositionLost,
     Range,
     Tide,
     Yaw,
 )
-from mavhelm.nav.lsq import DIVERGENCE_COUNT, LSQ, DivergenceMonitor, Fix
+from mavhelm.nav.filter_safety import (
+    BOOTED,
+    FAILED,
+    LOST,
+    REINITIALISED,
+    RESTARTED,
+    Decision,
+    FilterSafety,
+)
+from mavhelm.nav.heading_watch import (
+    DOUBT_SIGMA,
+    HEADING_DOUBT_SCALE,
+    HEADING_MAX_SCALE,
+    WANDER_NOISE,
+    WANDER_TIME,
+    HeadingWatch,
+)
+from mavhelm.nav.lsq import LSQ, Fix
+from mavhelm.nav.noise_match import NoiseMatch
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
     BEACON,
@@ -61,10 +80,11 @@ from mavhelm.nav.sensors import (
 )
 from mavhelm.nav.settings import (
     EKF_LAG,
-    LSQ_DIVERGENCE,
     LSQ_OFFSET,
     LSQ_TIMEOUT,
     LSQ_WINDOW,
+    MAX_LSQ_EKF_DEVIATION,
+    MAX_MEDIAN_LSQ_SHIFT,
     check_config,
     setting,
 )
@@ -108,8 +128,8 @@ class FusionConfig:
     lsq_window: float = setting(LSQ_WINDOW)
     lsq_timeout: float | None = setting(LSQ_TIMEOUT)
     lsq_offset: bool = setting(LSQ_OFFSET)
-    divergence_distance: float = setting(LSQ_DIVERGENCE)
-    divergence_count: int = DIVERGENCE_COUNT
+    divergence_distance: float = setting(MAX_LSQ_EKF_DEVIATION)
+    max_median_shift: float = setting(MAX_MEDIAN_LSQ_SHIFT)
     fixed_depth: FixedValue | None = setting(FIXEDDEPTH)
     fixed_heading: FixedValue | None = setting(FIXEDHEADING)
     fixed_tide: FixedValue | None = setting(FIXEDTIDE)
@@ -150,12 +170,26 @@ class Fusion:
         self.lsq: LSQ | None = (LSQ(beacons, window=config.lsq_window,
                                     estimate_offset=config.lsq_offset)
                                 if beacons and config.lsq else None)
-        self.monitor = DivergenceMonitor(config.divergence_distance, config.divergence_count)
+        if self.lsq is not None and config.fixed_tide is not None:
+            self.lsq.tide = config.fixed_tide.value
+        self.safety = FilterSafety(config.divergence_distance, config.lsq_timeout,
+                                   config.max_median_shift)
         self.ekf: EKF | None = None
         self.horizon: float | None = None
-        self.last_fix_time: float | None = None
         self.failure: str | None = None
         self.new_fixes: list[Fix] = []
+        self.decisions: list[Decision] = []
+        """Everything the navigator decided (spec 2.2.9), in order; ``new_decisions`` this
+        step's."""
+        self.new_decisions: list[Decision] = []
+        self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
+        self.noise = NoiseMatch()
+        self._heading_scale = (1.0, 0.0)
+        """(σ scale of the heading readings, until when): a doubted heading without a bias
+        state to absorb its error is down-weighted."""
+        self.nis: dict[str, list[float]] = {}
+        """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
+        freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
         self.olog: list[str] = []
         self.xlog: list[str] = []
         self.warnings: list[str] = []
@@ -171,6 +205,7 @@ class Fusion:
         self._rules = {r.sensor: r for r in config.rejection}
         self._channels: dict[tuple[str, str], SensorChannel] = {}
         self._xlog_header = False
+        self._lost = False
         self.logging = True
         """Build the .olog/.xlog lines; an owner with nowhere to write them turns it off."""
 
@@ -195,20 +230,25 @@ class Fusion:
 
     def step(self, now: float) -> Estimate | None:
         self.new_fixes = []
+        self.new_decisions = []
         if self.failure is not None:
             return None
         horizon = now - self.config.lag
         if self.horizon is not None and horizon < self.horizon:
             horizon = self.horizon
-        if self.last_fix_time is None:
-            self.last_fix_time = horizon
+        self.safety.start(horizon)
         try:
-            if self.ekf is None and self.config.start is not None:
+            if self.ekf is None and self.config.start is not None and not self._lost:
                 self._boot_at_start(horizon)
             sliced = self._drain(horizon)
             self.horizon = horizon
             self._tick_fixed(horizon, sliced)
             self._check_lsq(horizon)
+        except PositionLost as exc:
+            if self.lsq is None:
+                self._fail(str(exc))
+                return None
+            self._lose(str(exc), horizon)
         except NavigationFailure as exc:
             self._fail(str(exc))
             return None
@@ -259,11 +299,33 @@ class Fusion:
         nothing escapes the tick."""
         if self.ekf is not None:
             self.warnings.extend(self.ekf.warnings)
+        t = self.ekf.t if self.ekf is not None else (self.horizon or 0.0)
         self.ekf = None
         self._stream.clear()
         self.reinitialisations += 1
-        self.warnings.append(f"EKF numerical failure ({type(exc).__name__}: {exc}): the "
-                             "filter starts again")
+        self._decide(Decision(t, RESTARTED, f"EKF numerical failure ({type(exc).__name__}: "
+                              f"{exc}): the filter starts again"))
+
+    def _lose(self, why: str, t: float) -> None:
+        """The EKF is lost (MaxEKFPositionUncertainty): off-line until the LSQ's next
+        repeatable fixes boot it again (the original navigator's reset)."""
+        if self.ekf is not None:
+            self.warnings.extend(self.ekf.warnings)
+        self.ekf = None
+        self._lost = True
+        self._stream.clear()
+        self.reinitialisations += 1
+        self._decide(Decision(t, LOST, f"{why}: EKF off-line until the LSQ boots it again"))
+
+    def _decide(self, decision: Decision) -> None:
+        """Record a decision where the operator and the logs see it."""
+        self.decisions.append(decision)
+        self.new_decisions.append(decision)
+        self.warnings.append(str(decision))
+        line = f"# {decision.t:.3f} decision {decision}"
+        self.olog.append(line)
+        if self._xlog_header:
+            self.xlog.append(line)
 
     def _forecast(self, now: float) -> Estimate:
         """The lagged estimate brought forward to ``now`` (spec 2.2.7), the filter itself left
@@ -308,35 +370,116 @@ class Fusion:
         for r in kept:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
-        fixes: list[Fix] = []
-        if self.lsq is not None:
-            for r in kept:
-                if isinstance(r.obs, Range):
-                    fix = self.lsq.add(r.obs)
-                    if fix is not None:
-                        fixes.append(fix)
-        self.new_fixes.extend(fixes)
-        self.fixes += len(fixes)
-        if fixes:
-            self.last_fix_time = max(f.t for f in fixes)
+        fixes = self._feed_lsq(kept)
+        if self.ekf is not None:
+            self.ekf.advance(t)
+        for fix in fixes:
+            self._watch(fix)
         if self.ekf is None:
             self._try_boot(t, kept, fixes)
             if self.ekf is None:
                 for r in kept:
                     self._log(r, "waiting")
                 return
+        if kept:
+            self._update(t, kept)
+
+    def _feed_lsq(self, kept: list[Reading]) -> list[Fix]:
+        """The slice's pose-proportional readings into the LSQ; the fixes it makes."""
+        fixes: list[Fix] = []
+        if self.lsq is None:
+            return fixes
+        for r in kept:
+            if isinstance(r.obs, Yaw | Depth):
+                self.lsq.add_pose(r.obs)
+            elif isinstance(r.obs, Range):
+                fix = self.lsq.add(r.obs)
+                if fix is not None:
+                    fixes.append(fix)
+        self.new_fixes.extend(fixes)
+        self.fixes += len(fixes)
+        return fixes
+
+    def _update(self, t: float, kept: list[Reading]) -> None:
+        """The EKF's update on a slice, each reading's fate logged and watched."""
         ekf = self.ekf
-        ekf.advance(t)
-        for fix in fixes:
-            if self.monitor.check(fix, ekf.x[0, 0], ekf.x[1, 0]):
-                ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA),
-                                 yaw=self._last_yaw)
-                self.reinitialisations += 1
-        if not kept:
-            return
-        result = ekf.update([r.obs for r in kept])
+        assert ekf is not None
+        result = ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
+            self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
+            nis = verdict.d2 / max(verdict.dof, 1)
+            self._check_heading(t, r, verdict.accepted, nis)
+            if isinstance(r.obs, Range | Position) and verdict.accepted:
+                self.noise.observe(_channel(r.obs, r.sensor.name), nis)
+        decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
+        if decision is not None:
+            self._decide(decision)
+
+    def _weighted(self, obs: Observation, sensor: str) -> Observation:
+        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`); a
+        heading with the doubt's scale, while it lasts."""
+        if isinstance(obs, Yaw):
+            scale, until = self._heading_scale
+            if scale == 1.0 or obs.t > until:
+                self._heading_scale = (1.0, 0.0)
+                return obs
+            return dataclasses.replace(obs, sigma=obs.sigma * scale)
+        if not isinstance(obs, Range | Position):
+            return obs
+        scale = self.noise.scale(_channel(obs, sensor))
+        return obs if scale == 1.0 else dataclasses.replace(obs, sigma=obs.sigma * scale)
+
+    def _check_heading(self, t: float, r: Reading, accepted: bool, nis: float) -> None:
+        """The heading watch on one reading's fate (see :mod:`mavhelm.nav.heading_watch`)."""
+        watch, ekf = self.heading_watch, self.ekf
+        assert ekf is not None
+        decision = None
+        if isinstance(r.obs, Range | Position):
+            if not accepted:
+                return  # an outlier is the gate's business: a wrong heading shows first
+            decision = watch.position(t, nis)
+            if watch.doubted_at == t:
+                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
+                if ekf.i_bias is None:
+                    # no bias state to take the error: the heading itself is down-weighted
+                    scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE,
+                                HEADING_MAX_SCALE)
+                    self._heading_scale = (scale, t + WANDER_TIME)
+        elif isinstance(r.obs, Yaw):
+            decision = watch.heading(t, r.sensor.name, accepted)
+        if decision is not None:
+            self._decide(decision)
+
+    def _watch(self, fix: Fix) -> None:
+        """The LSQ's checks of the EKF (spec 2.2.9) on one fix: a failure raises, a
+        sustained disagreement re-initialises the EKF to the fix."""
+        ekf = self.ekf
+        decision = self.safety.on_fix(fix, None if ekf is None
+                                      else (float(ekf.x[0, 0]), float(ekf.x[1, 0])))
+        if decision is None:
+            return
+        if decision.kind == FAILED:
+            raise NavigationFailure(decision.why)
+        if decision.kind != REINITIALISED:
+            self._decide(decision)
+            return
+        assert ekf is not None
+        ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA), yaw=self._last_yaw)
+        ekf.warnings.pop()  # its "re-initialised" line: the decision says it, and why
+        self.reinitialisations += 1
+        self._decide(decision)
+
+    def _score(self, sensor: str, d2: float, dof: int, accepted: bool) -> None:
+        tally = self.nis.get(sensor)
+        if tally is None:
+            tally = self.nis[sensor] = [0.0, 0.0, 0.0, 0.0]
+        tally[2] += 1
+        if accepted:
+            tally[0] += d2
+            tally[1] += dof
+        else:
+            tally[3] += 1
 
     def _channel_agrees(self, r: Reading) -> bool:
         rule = self._rules.get(r.sensor.name)
@@ -360,6 +503,8 @@ class Fusion:
                        sigma_xy=s.sigma_xy, sigma_yaw=s.sigma_yaw)
         if self.ekf.i_z is not None:
             self.ekf.x[self.ekf.i_z, 0] = s.z
+        self.decisions.append(Decision(t, BOOTED, f"EKF started at the mission's start "
+                                       f"({s.x:.1f}, {s.y:.1f}) ± {s.sigma_xy:g} m"))
 
     def _try_boot(self, t: float, readings: list[Reading], fixes: list[Fix]) -> None:
         yaw = self._last_yaw if self._last_yaw is not None else 0.0
@@ -369,8 +514,9 @@ class Fusion:
                 if isinstance(r.obs, Position):
                     self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, config=self.config.ekf,
                                    sigma_xy=max(2.0 * r.obs.sigma, 1.0), sigma_yaw=sigma_yaw)
-                    self.warnings.append(f"EKF started at the first {r.sensor.name} fix "
-                                         f"({r.obs.x:.1f}, {r.obs.y:.1f})")
+                    self._decide(Decision(t, BOOTED, f"EKF started at the first "
+                                          f"{r.sensor.name} fix ({r.obs.x:.1f}, "
+                                          f"{r.obs.y:.1f})"))
                     return
             return
         for fix in fixes:
@@ -388,23 +534,25 @@ class Fusion:
         self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.config.ekf,
                        sigma_xy=max(fix.sigma, fix.rms, BOOT_SIGMA), sigma_yaw=sigma_yaw)
         self.boot_fix = fix
-        self.warnings.append(f"EKF booted from the LSQ at ({fix.x:.1f}, {fix.y:.1f})")
+        self._decide(Decision(t, BOOTED, f"EKF booted from the LSQ at ({fix.x:.1f}, "
+                              f"{fix.y:.1f})"))
 
     def _check_lsq(self, horizon: float) -> None:
-        timeout = self.config.lsq_timeout
-        if self.lsq is None or timeout is None or self.last_fix_time is None:
+        if self.lsq is None:
             return
-        silent = horizon - self.last_fix_time
-        if silent > timeout:
-            raise NavigationFailure(
-                f"no LSQ fix for {silent:.0f} s (limit {timeout:g} s): ranges to "
-                f"{self.lsq.observable} beacons are needed; navigation is unobservable")
+        decision = self.safety.timed_out(horizon, self.lsq.observable, self.lsq.last_attempt,
+                                         self.ekf is not None)
+        if decision is not None and decision.kind == FAILED:
+            raise NavigationFailure(decision.why)
+        if decision is not None:
+            self._decide(decision)
 
     def _fail(self, why: str) -> None:
         self.failure = why
         self._queue.clear()
-        self.olog.append(f"# navigation failure: {why}")
-        self.warnings.append(f"navigation failure: {why}; the filters are off-line")
+        t = self.horizon if self.horizon is not None else 0.0
+        self._decide(Decision(t, FAILED, f"navigation failure: {why}; the filters are "
+                              "off-line"))
 
     # ------------------------------------------------------------------ logs
 
@@ -445,3 +593,8 @@ class Fusion:
         sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
+
+
+def _channel(obs: Range | Position, sensor: str) -> tuple[str, str]:
+    """What a noise scale is kept for: a sensor, and for ranges each beacon of it."""
+    return (sensor, obs.beacon if isinstance(obs, Range) else "")

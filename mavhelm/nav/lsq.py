@@ -5,8 +5,7 @@ short window until the position is observable (ranges to at least ``min_beacons`
 beacons), solves by Gauss–Newton (Newton–Raphson on the linearised range equations, with step
 halving), publishes the fix and starts again from scratch. Being memory-less it cannot diverge,
 which is why it boots the EKF when the start is known only roughly and watches it afterwards
-(spec 2.2.9): :class:`DivergenceMonitor` counts fixes that disagree with the EKF by more than
-20 m and asks for a re-initialisation after 6 in a row.
+(spec 2.2.9; the checks are :mod:`mavhelm.nav.filter_safety`).
 
 Data rejection (spec 2.2.6): a solution whose weighted residuals fail a χ² test (with n − 2
 degrees of freedom, n − 3 with the offset) has its worst range dropped and is solved again
@@ -34,6 +33,7 @@ keep ``window`` a few seconds, so a moving vehicle's fix is smeared by at most s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from collections.abc import Iterable, Sequence
@@ -41,13 +41,8 @@ from dataclasses import dataclass
 
 from scipy.stats import chi2
 
-from mavhelm.nav.ekf import Beacon, Range
-from mavhelm.nav.settings import LSQ_DIVERGENCE, LSQ_WINDOW
-
-DIVERGENCE_DISTANCE: float = LSQ_DIVERGENCE.default
-"""m: an LSQ fix further than this from the EKF is a disagreement (spec 2.2.9)."""
-DIVERGENCE_COUNT = 6
-"""Disagreements in a row before the EKF is re-initialised to the LSQ (the original's 6)."""
+from mavhelm.nav.ekf import Beacon, Depth, Range, Yaw
+from mavhelm.nav.settings import LSQ_WINDOW
 
 
 @dataclass(frozen=True)
@@ -55,7 +50,10 @@ class Fix:
     """An LSQ position: ``t`` is the newest range's time, ``sigma`` the larger 1-σ of the
     position (from the normal equations and the ranges' noise), ``rms`` the residual RMS (m),
     ``chi2`` the sum of squared weighted residuals and ``dof`` its degrees of freedom,
-    ``offset`` the common range offset solved for (0 when not estimated)."""
+    ``offset`` the common range offset solved for (0 when not estimated); ``yaw`` (rad),
+    ``depth`` and ``z`` (m, up: tide − depth − the sensor's height) from the orientation and
+    depth readings of the same window, when there were any (the spec's five-state LSQ: X, Y,
+    Z, heading, tide)."""
 
     t: float
     x: float
@@ -67,6 +65,9 @@ class Fix:
     offset: float = 0.0
     chi2: float = 0.0
     dof: int = 0
+    yaw: float | None = None
+    depth: float | None = None
+    z: float | None = None
 
 
 _Row = tuple[float, float, float, float, float]
@@ -236,10 +237,38 @@ class LSQ:
         self.max_drops = max_drops
         self.estimate_offset = estimate_offset
         self._ranges: deque[Range] = deque()
+        self._poses: deque[Yaw | Depth] = deque()
+        self.tide = 0.0
+        """The tide (m) a depth is turned into Z with (FIXEDTIDE, else the surface at 0)."""
         self.last_fix: Fix | None = None
         self.rejected = 0
         self.failures = 0
+        self.last_attempt: float | None = None
+        """When the window last held enough beacons to try a fix (observable), fix or not."""
         self._gates: dict[int, float] = {}
+
+    def add_pose(self, obs: Yaw | Depth) -> None:
+        """An orientation or depth reading: proportional to the pose, it goes into the next
+        fix's yaw or depth (the LSQ's static model: averaged over the window)."""
+        if math.isfinite(obs.z):
+            self._poses.append(obs)
+            while obs.t - self._poses[0].t > self.window:
+                self._poses.popleft()
+
+    def _pose(self, fix: Fix) -> Fix:
+        while self._poses and fix.t - self._poses[0].t > self.window:
+            self._poses.popleft()
+        window = [p for p in self._poses if p.t <= fix.t]
+        self._poses = deque(p for p in self._poses if p.t > fix.t)
+        yaws = [p.z for p in window if isinstance(p, Yaw)]
+        depths = [p for p in window if isinstance(p, Depth)]
+        yaw = (math.atan2(sum(math.sin(a) for a in yaws), sum(math.cos(a) for a in yaws))
+               if yaws else None)
+        if not depths:
+            return dataclasses.replace(fix, yaw=yaw)
+        depth = sum(d.z for d in depths) / len(depths)
+        lever = sum(d.lever[2] for d in depths) / len(depths)
+        return dataclasses.replace(fix, yaw=yaw, depth=depth, z=self.tide - depth - lever)
 
     def add(self, obs: Range) -> Fix | None:
         if obs.beacon not in self.beacons or not math.isfinite(obs.z):
@@ -250,6 +279,7 @@ class LSQ:
         if len({r.beacon for r in self._ranges}) < self.min_beacons:
             return None
         ranges = list(self._ranges)
+        self.last_attempt = obs.t
         last = self.last_fix
         recent = last is not None and obs.t - last.t <= 10 * self.window
         guess = (last.x, last.y) if last is not None and recent else None
@@ -278,6 +308,7 @@ class LSQ:
         if fix is None:
             self.failures += 1
             return None
+        fix = self._pose(fix)
         self.last_fix = fix
         return fix
 
@@ -297,24 +328,3 @@ class LSQ:
         if gate is None:
             gate = self._gates[fix.dof] = float(chi2.ppf(self.gate_probability, fix.dof))
         return fix.chi2 <= gate
-
-
-class DivergenceMonitor:
-    """Spec 2.2.9: ``check(fix, ekf_x, ekf_y)`` is True when the EKF should be re-initialised
-    to the fix, i.e. after ``count`` fixes in a row further than ``distance`` from it."""
-
-    def __init__(self, distance: float = DIVERGENCE_DISTANCE,
-                 count: int = DIVERGENCE_COUNT) -> None:
-        self.distance = distance
-        self.count = count
-        self.disagreements = 0
-
-    def check(self, fix: Fix, ekf_x: float, ekf_y: float) -> bool:
-        if math.hypot(fix.x - ekf_x, fix.y - ekf_y) > self.distance:
-            self.disagreements += 1
-        else:
-            self.disagreements = 0
-        if self.disagreements >= self.count:
-            self.disagreements = 0
-            return True
-        return False

@@ -14,11 +14,16 @@ Only fresh values are forwarded, once each: when every source of a key is stale,
 quiet instead of repeating the last value, so the helm's tasks starve and stop the vehicle
 rather than steering on a position that is no longer true.
 
-A navigation failure (spec 2.2.11: the EKF's uncertainty limit, or no LSQ fix within
-``LSQ_TIMEOUT``) takes the filters off-line and posts ``NAVIGATION_FAILURE`` (why) and
-``EndMission``, which starts every EndMission task of the helm. Filter warnings (rate resets,
-boots, re-initialisations) are posted as ``NAV_WARNING``. The .olog/.xlog lines go to an
-injected ``NavLogSink`` (the companion writes files; a replay may keep them in memory).
+A navigation failure (spec 2.2.11: the EKF's uncertainty limit with no LSQ to boot it
+again, no LSQ fix within ``LSQTimeOut``, an LSQ all over the shop) takes the filters off-line
+and posts ``NAVIGATION_FAILURE`` (why) and ``EndMission``, which starts every EndMission task
+of the helm. What the navigator decides (:mod:`mavhelm.nav.filter_safety`: boots,
+re-initialisations to the LSQ, an EKF lost, the failure) is posted as ``NAV_STATUS``
+(``kind: why``) and, with the filter's other warnings (rate resets), as ``NAV_WARNING``, the
+console's line. ``NAV_X_STD``/``NAV_Y_STD`` go with each ``NAV_X``/``NAV_Y``: the 1-σ of the
+source it came from (the EKF's or LSQ's own, a sensor's declared noise). The .olog/.xlog
+lines go to an injected ``NavLogSink`` (the companion writes files; a replay may keep them
+in memory).
 """
 
 from __future__ import annotations
@@ -60,7 +65,6 @@ from mavhelm.nav.settings import (
     EKF_GATE,
     EKF_HEADING,
     EKF_LAG,
-    EKF_MAX_SIGMA_XY,
     EKF_MAX_SPEED,
     EKF_MOBILE,
     EKF_RANGE_SCALE,
@@ -77,10 +81,12 @@ from mavhelm.nav.settings import (
     EKF_Z,
     EKF_Z_DYNAMICS,
     LSQ,
-    LSQ_DIVERGENCE,
     LSQ_OFFSET,
     LSQ_TIMEOUT,
     LSQ_WINDOW,
+    MAX_EKF_POSITION_UNCERTAINTY,
+    MAX_LSQ_EKF_DEVIATION,
+    MAX_MEDIAN_LSQ_SHIFT,
     config_from,
 )
 
@@ -126,8 +132,9 @@ NAV_SCHEMA = Schema(
      BEACON, FIXEDDEPTH, FIXEDHEADING, FIXEDTIDE, FIXEDSIDESLIP,
      *EKF_START, EKF_SIGMA_XY, EKF_SIGMA_HEADING, EKF_SIGMA_Z, EKF_XY_DYNAMICS,
      EKF_YAW_DYNAMICS, EKF_Z_DYNAMICS, EKF_MOBILE, EKF_LAG, EKF_YAW_BIAS, EKF_TIDE,
-     EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE, EKF_MAX_SIGMA_XY, EKF_MAX_SPEED,
-     LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, LSQ_DIVERGENCE, LBL_SOUND_SPEED,
+     EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE, MAX_EKF_POSITION_UNCERTAINTY, EKF_MAX_SPEED,
+     LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, MAX_LSQ_EKF_DEVIATION,
+     MAX_MEDIAN_LSQ_SHIFT, LBL_SOUND_SPEED,
      *NAV_LOG_SETTINGS, SENSOR_SILENCE, ALWAYS_READ, *ORIGINAL_ONLY),
     moos=APP_PARAMS,
 )
@@ -281,6 +288,11 @@ class Navigator(App):
         self.log = log
         self.log_settings = log_settings or {}
         self.failure_posted = False
+        self._std: dict[str, tuple[float, float]] = {
+            spec.source: (spec.sigma(), spec.sigma()) for spec in sensors or []
+            if spec.type == "XY"}
+        """Per position source, its 1-σ in X and Y (m): declared for a sensor, the filters'
+        own for EKF and LSQ; posted as NAV_X_STD/NAV_Y_STD beside the value it goes with."""
 
     @classmethod
     def from_block(cls, bus: Bus, block: Block, log: NavLogSink | None = None,
@@ -368,6 +380,7 @@ class Navigator(App):
             if queue.offer(source, msg.double, msg.time):
                 self._announce(queue.key, source)
                 self._post(queue.key, msg.double, msg.time)
+                self._post_std(queue.key, source, msg.time)
 
     def _offer(self, name: str, value: float, t: float, now: float) -> None:
         """Post a filter output and offer it to the queues, as a sensor's value would be."""
@@ -391,10 +404,19 @@ class Navigator(App):
         assert fusion is not None
         estimate = fusion.step(now)
         for fix in fusion.new_fixes:
+            self._std["LSQ"] = (fix.sigma, fix.sigma)
             self._offer("LSQ_X", fix.x, fix.t, now)
             self._offer("LSQ_Y", fix.y, fix.t, now)
+            if fix.yaw is not None:
+                self._offer("LSQ_YAW", fix.yaw, fix.t, now)
+                self._offer("LSQ_HEADING", yaw_to_heading(fix.yaw), fix.t, now)
+            if fix.depth is not None and fix.z is not None:
+                self._offer("LSQ_DEPTH", fix.depth, fix.t, now)
+                self._offer("LSQ_Z", fix.z, fix.t, now)
         if estimate is not None:
             self._publish(estimate, now)
+        for decision in fusion.new_decisions:
+            self.notify("NAV_STATUS", str(decision))
         for warning in fusion.warnings:
             self.notify("NAV_WARNING", warning)
         fusion.warnings.clear()
@@ -422,6 +444,7 @@ class Navigator(App):
             values["EKF_TIDE"] = e.tide
         if ekf is not None and ekf.i_bias is not None:
             values["EKF_YAW_BIAS"] = e.yaw_bias
+        self._std["EKF"] = (e.sigma_x, e.sigma_y)
         for name, value in values.items():
             self._offer(name, value, e.t, now)
 
@@ -430,6 +453,13 @@ class Navigator(App):
         if self._announced[key] != name:
             self._announced[key] = name
             self.notify(f"NAV_{key}_SOURCE", name)
+
+    def _post_std(self, key: str, source: str, time: float) -> None:
+        """NAV_X_STD/NAV_Y_STD: the 1-σ of the position just posted, from its source."""
+        axis = {"X": 0, "Y": 1}.get(key)
+        std = self._std.get(source)
+        if axis is not None and std is not None and math.isfinite(std[axis]):
+            self.notify(f"NAV_{key}_STD", std[axis], time)
 
     def _post(self, key: str, value: float, time: float) -> None:
         if key == "YAW":

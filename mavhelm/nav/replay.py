@@ -17,13 +17,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Final
 
 import numpy as np
+from scipy.stats import chi2
 
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import Block
-from mavhelm.nav.ekf import Estimate
+from mavhelm.nav.ekf import EKF, Estimate
+from mavhelm.nav.filter_safety import DECISION_KINDS
 from mavhelm.nav.navigator import Navigator
 
 OWN_OUTPUTS = ("NAV_", "EKF_", "LSQ_")
@@ -57,6 +60,52 @@ class Track:
     y: list[float] = field(default_factory=list)
 
 
+NEES_BAND: Final = (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2)))
+"""The two-sided 95 % band of a 2-dof χ²: where a position error's NEES falls 95 % of the
+time when the filter's covariance tells the truth about it."""
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """How honest the EKF's position covariance is against the truth: the mean NEES (2 when
+    honest), the share of ticks whose NEES is inside :data:`NEES_BAND` (0.95 when honest),
+    the share above it (over-confident) and the number of ticks."""
+
+    mean: float
+    inside: float
+    above: float
+    n: int
+
+    def __str__(self) -> str:
+        low, high = NEES_BAND
+        return (f"mean {self.mean:.2f} (2 when honest), {100 * self.inside:.0f} % of ticks "
+                f"inside the 95 % band [{low:.2f}, {high:.2f}], {100 * self.above:.0f} % "
+                f"above (n={self.n})")
+
+
+@dataclass
+class CovarianceTrack:
+    """The EKF's position and its 2×2 covariance at the filter's own times."""
+
+    t: list[float] = field(default_factory=list)
+    x: list[float] = field(default_factory=list)
+    y: list[float] = field(default_factory=list)
+    pxx: list[float] = field(default_factory=list)
+    pxy: list[float] = field(default_factory=list)
+    pyy: list[float] = field(default_factory=list)
+
+    def take(self, ekf: EKF) -> None:
+        if self.t and ekf.t <= self.t[-1]:
+            return
+        P = ekf.P
+        self.t.append(ekf.t)
+        self.x.append(float(ekf.x[0, 0]))
+        self.y.append(float(ekf.x[1, 0]))
+        self.pxx.append(float(P[0, 0]))
+        self.pxy.append(float(P[0, 1]))
+        self.pyy.append(float(P[1, 1]))
+
+
 @dataclass
 class ReplayResult:
     """What the navigator did over the log."""
@@ -68,6 +117,13 @@ class ReplayResult:
     span: float
     warnings: list[str]
     failure: str | None
+    covariance: CovarianceTrack = field(default_factory=CovarianceTrack)
+    start: float = 0.0
+
+    def consistency(self) -> Consistency:
+        """The EKF position's NEES against the truth."""
+        c, tr = self.covariance, self.truth
+        return nees(c.t, c.x, c.y, c.pxx, c.pxy, c.pyy, tr.t, tr.x, tr.y)
 
     @property
     def final(self) -> Estimate | None:
@@ -89,9 +145,23 @@ class ReplayResult:
             lines.append("no truth in the log (TRUTH_X, TRUTH_Y): nothing to score")
         fusion = self.navigator.fusion
         if fusion is not None:
+            if self.truth.t and self.covariance.t:
+                lines.append(f"NEES (EKF position, 2 dof): {self.consistency()}")
             counts = ", ".join(f"{k} {v}" for k, v in fusion.counts.items() if v)
             lines.append(f"observations: {counts}; LSQ fixes {fusion.fixes}, "
                          f"re-initialisations {fusion.reinitialisations}")
+            nis = [f"{name} {total / dof:.2f} ({int(rejected)} of {int(n)} rejected)"
+                   for name, (total, dof, n, rejected) in fusion.nis.items() if dof]
+            if nis:
+                lines.append("NIS per dof by sensor (1 when its noise is told right): "
+                             + ", ".join(nis))
+            made = [d.kind for d in fusion.decisions]
+            lines.append("decisions: " + ", ".join(f"{kind} {made.count(kind)}"
+                                                   for kind in DECISION_KINDS))
+            shown = fusion.decisions[:10]
+            lines += [f"  {d.t - self.start:8.1f} s  {d}" for d in shown]
+            if len(fusion.decisions) > len(shown):
+                lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
             final = self.final
             if final is not None:
                 learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg",
@@ -117,6 +187,7 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
     wanted = {f"{s}_{k}" for s in SCORED for k in ("X", "Y")}
     bus.subscribe("replay", wanted | {"NAV_WARNING"})
     recorder = _Recorder()
+    covariance = CovarianceTrack()
     subscribed = nav.subscriptions() | wanted
     ticks = 0
     i = 0
@@ -133,13 +204,15 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
             i += 1
         nav.on_mail(bus.fetch(nav.name), now)
         nav.iterate(now)
+        if nav.fusion is not None and nav.fusion.ekf is not None:
+            covariance.take(nav.fusion.ekf)
         ticks += 1
         recorder.take(bus.fetch("replay"))
         now += period
     fusion = nav.fusion
     span = (ordered[-1].time - start) if ordered else 0.0
     return ReplayResult(recorder.tracks, truth, nav, ticks, span, recorder.warnings,
-                        fusion.failure if fusion is not None else None)
+                        fusion.failure if fusion is not None else None, covariance, start)
 
 
 @dataclass
@@ -208,3 +281,26 @@ def accuracy(t: Iterable[float], x: Iterable[float], y: Iterable[float],
                    y[inside] - np.interp(t[inside], tt, ty))
     return Accuracy(float(np.sqrt(np.mean(err**2))), float(np.percentile(err, 95)),
                     float(err.max()), int(err.size))
+
+
+def nees(t: Iterable[float], x: Iterable[float], y: Iterable[float], pxx: Iterable[float],
+         pxy: Iterable[float], pyy: Iterable[float], truth_t: Iterable[float],
+         truth_x: Iterable[float], truth_y: Iterable[float]) -> Consistency:
+    """The normalised estimation error squared of positions with covariances against the
+    truth interpolated at their times (outside the truth's span: not scored)."""
+    t, x, y, a, b, d = (np.asarray(list(v), dtype=float) for v in (t, x, y, pxx, pxy, pyy))
+    tt, tx, ty = (np.asarray(list(v), dtype=float) for v in (truth_t, truth_x, truth_y))
+    order = np.argsort(tt, kind="stable")
+    tt, tx, ty = tt[order], tx[order], ty[order]
+    inside = (t >= tt[0]) & (t <= tt[-1]) if len(tt) else np.zeros(len(t), dtype=bool)
+    det = a * d - b * b
+    inside &= det > 0
+    if not inside.any():
+        return Consistency(math.nan, math.nan, math.nan, 0)
+    ex = x[inside] - np.interp(t[inside], tt, tx)
+    ey = y[inside] - np.interp(t[inside], tt, ty)
+    a, b, d, det = a[inside], b[inside], d[inside], det[inside]
+    value = (d * ex * ex - 2 * b * ex * ey + a * ey * ey) / det
+    low, high = NEES_BAND
+    return Consistency(float(value.mean()), float(((value >= low) & (value <= high)).mean()),
+                       float((value > high).mean()), int(value.size))

@@ -77,21 +77,27 @@ EKF_BEACON_OFFSETS = Param("EKF_BEACON_OFFSETS", Boolean(), True, "", "learn eac
                            attr="ekf_beacon_offsets")
 EKF_GATE = Param("EKF_GATE", Number(0.9, 0.999999), 0.999, "", "χ² acceptance probability of "
                  "the data rejection", attr="ekf_gate")
-EKF_MAX_SIGMA_XY = Param("EKF_MAX_SIGMA_XY", Number(1.0, 1e5), 100.0, "m", "position 1-σ "
-                         "beyond this is a navigation failure", attr="ekf_max_sigma_xy")
+MAX_EKF_POSITION_UNCERTAINTY = Param(
+    "MaxEKFPositionUncertainty", Number(1.0, 1e5), 100.0, "m", "EKF position 1-σ beyond this: "
+    "the EKF is lost (off-line until the LSQ boots it again; without an LSQ a navigation "
+    "failure)", attr="ekf_max_sigma_xy")
 EKF_MAX_SPEED = Param("EKF_MAX_SPEED", Number(0.1, 100.0), 10.0, "m/s", "speed states beyond "
                       "this are reset", attr="ekf_max_speed")
 LSQ = Param("LSQ", Boolean(), True, "", "run the LSQ on beacon ranges (boots and watches the "
             "EKF)", attr="lsq")
 LSQ_WINDOW = Param("LSQ_WINDOW", Number(0.5, 60.0), 5.0, "s", "ranges older than this are not "
                    "combined into a fix", attr="lsq_window")
-LSQ_TIMEOUT = Param("LSQ_TIMEOUT", Seconds(3600.0), 30.0, "s", "no LSQ fix for this long is a "
+LSQ_TIMEOUT = Param("LSQTimeOut", Seconds(3600.0), 30.0, "s", "no LSQ fix for this long is a "
                     "navigation failure (NEVER: never)", attr="lsq_timeout")
 LSQ_OFFSET = Param("LSQ_OFFSET", Boolean(), False, "", "solve a common range offset too (needs "
                    "a fourth beacon)", attr="lsq_offset")
-LSQ_DIVERGENCE = Param("LSQ_DIVERGENCE", Number(1.0, 1e4), 20.0, "m", "an LSQ fix this far from "
-                       "the EKF is a disagreement; 6 in a row re-initialise the EKF",
-                       attr="lsq_divergence")
+MAX_LSQ_EKF_DEVIATION = Param("MaxLSQEKFDeviation", Number(1.0, 1e4), 20.0, "m", "an LSQ fix "
+                              "this far from the EKF is a disagreement; 6 in a row take the EKF "
+                              "off-line and re-initialise it to the LSQ",
+                              attr="lsq_divergence")
+MAX_MEDIAN_LSQ_SHIFT = Param("MaxMedianLSQShift", Number(1.0, 1e5), 20.0, "m", "the median "
+                             "jump between the last 8 LSQ fixes beyond this is a navigation "
+                             "failure (the LSQ is all over the shop)", attr="lsq_max_shift")
 
 EKF_START: Final = (EKF_X, EKF_Y, EKF_Z, EKF_HEADING)
 """The start pose settings (a ``Start`` is built from them, with the start σ)."""

@@ -1,0 +1,225 @@
+"""Faults made on a recorded log, so pNav can be scored on the world's bad days (spec 2.2.9).
+
+Each fault turns the bus variables of a recording into those of the same run with one thing
+gone wrong, deterministically (a seeded generator): what the navigator then does is replayed
+(:func:`mavhelm.nav.replay.replay`) and scored against the recording's truth. The faults are
+those real vehicles meet:
+
+==================  ==========================================================================
+``heading_wander``  the orientation sensor's bias wanders, a smooth random walk reaching 180°
+                    within minutes (an odometry-integrated heading, a compass by a moving load)
+``heading_jumps``   the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
+                    compass near a motor)
+``heading_stuck``   the heading holds one value for five minutes (a frozen AHRS)
+``ranges_gap``      60 s without any beacon range
+``beacon_moved``    one beacon is 5 m from its surveyed position (its ranges say so)
+``range_outliers``  5 % of the ranges wrong by 5–50 m (multipath, a second reply)
+``gps_glitches``    the position sensor with 2 m of noise, and 30–60 m glitches of 5 s every
+                    two minutes
+==================  ==========================================================================
+
+A fault that finds nothing to act on (no ranges, no position sensor) leaves the log as it was
+and says so (``applies``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Block
+from mavhelm.nav.ekf import Beacon
+from mavhelm.nav.navigator import NAV_SCHEMA
+from mavhelm.nav.sensors import BEACON, SENSOR_TYPES
+
+TRUTH = ("TRUTH_X", "TRUTH_Y")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What a fault needs to know of the mission: its sensors' variable prefixes by type
+    and the surveyed beacons."""
+
+    orientation: tuple[str, ...]
+    ranging: tuple[str, ...]
+    position: tuple[str, ...]
+    beacons: tuple[Beacon, ...]
+
+
+def layout_of(block: Block) -> Layout:
+    """The layout of a ``pNav`` block (read and checked by its schema)."""
+    settings = NAV_SCHEMA.read(block)
+    specs = [spec for kind in SENSOR_TYPES for spec in settings[f"sensor_{kind.lower()}"]]
+
+    def sources(*types: str) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(s.source for s in specs if s.type in types))
+    return Layout(sources("ORIENTATION"), sources("RANGE", "LBL"), sources("XY"),
+                  tuple(settings[BEACON.attribute]))
+
+
+FaultMaker = Callable[[list[Message], Layout, np.random.Generator], list[Message]]
+
+
+def _is(m: Message, prefixes: Sequence[str], *suffixes: str) -> bool:
+    return m.is_double and any(m.name == f"{p}_{s}" for p in prefixes for s in suffixes)
+
+
+def _span(messages: list[Message]) -> tuple[float, float]:
+    return messages[0].time, messages[-1].time
+
+
+def _turn(m: Message, bias_deg: float) -> Message:
+    """A heading (deg) or yaw (rad, yaw = −heading) reading turned clockwise by ``bias_deg``."""
+    if m.name.endswith("_HEADING"):
+        return m._replace(value=(m.double + bias_deg) % 360.0)
+    return m._replace(value=math.remainder(m.double - math.radians(bias_deg), 2 * math.pi))
+
+
+def heading_wander(messages: list[Message], layout: Layout,
+                   rng: np.random.Generator) -> list[Message]:
+    t0, t1 = _span(messages)
+    grid = np.arange(t0, t1 + 1.0, 1.0)
+    rate = np.cumsum(rng.normal(0.0, 0.05, grid.size))  # deg/s, itself a random walk
+    walk = np.cumsum(np.clip(rate, -2.0, 2.0))
+    walk *= 180.0 / max(float(np.max(np.abs(walk))), 1e-9)
+    return [_turn(m, float(np.interp(m.time, grid, walk)))
+            if _is(m, layout.orientation, "HEADING", "YAW") else m for m in messages]
+
+
+def heading_jumps(messages: list[Message], layout: Layout,
+                  rng: np.random.Generator) -> list[Message]:
+    t0, t1 = _span(messages)
+    windows = []
+    t = t0 + rng.uniform(30.0, 90.0)
+    while t < t1:
+        length = rng.uniform(5.0, 20.0)
+        windows.append((t, t + length, rng.choice([-1.0, 1.0]) * rng.uniform(30.0, 90.0)))
+        t += length + rng.uniform(40.0, 80.0)
+
+    def bias(time: float) -> float:
+        return next((b for a, e, b in windows if a <= time < e), 0.0)
+    return [_turn(m, bias(m.time)) if _is(m, layout.orientation, "HEADING", "YAW") else m
+            for m in messages]
+
+
+def heading_stuck(messages: list[Message], layout: Layout,
+                  rng: np.random.Generator) -> list[Message]:
+    t0, t1 = _span(messages)
+    start = t0 + min(300.0, (t1 - t0) / 3)
+    held: dict[str, float | str] = {}
+    out = []
+    for m in messages:
+        if _is(m, layout.orientation, "HEADING", "YAW") and start <= m.time < start + 300.0:
+            m = m._replace(value=held.setdefault(m.name, m.value))
+        out.append(m)
+    return out
+
+
+def ranges_gap(messages: list[Message], layout: Layout,
+               rng: np.random.Generator) -> list[Message]:
+    t0, t1 = _span(messages)
+    start = t0 + min(600.0, (t1 - t0) / 2)
+    return [m for m in messages if not (_ranging(m, layout) and start <= m.time < start + 60.0)]
+
+
+def _ranging(m: Message, layout: Layout) -> bool:
+    return m.is_double and any(m.name.startswith((f"{p}_RANGE_", f"{p}_TWTT_"))
+                               for p in layout.ranging)
+
+
+def beacon_moved(messages: list[Message], layout: Layout,
+                 rng: np.random.Generator) -> list[Message]:
+    if not layout.beacons:
+        return messages
+    beacon = layout.beacons[0]
+    angle = rng.uniform(0.0, 2 * math.pi)
+    moved = (beacon.x + 5.0 * math.cos(angle), beacon.y + 5.0 * math.sin(angle))
+    tt, tx, ty = _truth(messages)
+    if tt.size == 0:
+        return messages
+    out = []
+    for m in messages:
+        if _ranging(m, layout) and m.name.endswith(f"_RANGE_{beacon.name}"):
+            x, y = np.interp(m.time, tt, tx), np.interp(m.time, tt, ty)
+            dz2 = beacon.z ** 2
+            shift = (math.sqrt((x - moved[0]) ** 2 + (y - moved[1]) ** 2 + dz2)
+                     - math.sqrt((x - beacon.x) ** 2 + (y - beacon.y) ** 2 + dz2))
+            m = m._replace(value=m.double + shift)
+        out.append(m)
+    return out
+
+
+def range_outliers(messages: list[Message], layout: Layout,
+                   rng: np.random.Generator) -> list[Message]:
+    out = []
+    for m in messages:
+        if _ranging(m, layout) and m.name.rpartition("_RANGE_")[1] and rng.random() < 0.05:
+            m = m._replace(value=max(m.double + rng.choice([-1.0, 1.0]) * rng.uniform(5, 50),
+                                     0.5))
+        out.append(m)
+    return out
+
+
+def gps_glitches(messages: list[Message], layout: Layout,
+                 rng: np.random.Generator) -> list[Message]:
+    t0, _ = _span(messages)
+    glitch: dict[int, tuple[float, float]] = {}
+    out = []
+    for m in messages:
+        if _is(m, layout.position, "X", "Y"):
+            k = int((m.time - t0) // 120.0)
+            phase = (m.time - t0) - 120.0 * k
+            value = m.double + rng.normal(0.0, 2.0)
+            if 60.0 <= phase < 65.0:
+                if k not in glitch:
+                    r, a = rng.uniform(30.0, 60.0), rng.uniform(0.0, 2 * math.pi)
+                    glitch[k] = (r * math.cos(a), r * math.sin(a))
+                value += glitch[k][0 if m.name.endswith("_X") else 1]
+            m = m._replace(value=value)
+        out.append(m)
+    return out
+
+
+def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    xs = {m.time: m.double for m in messages if m.name == TRUTH[0] and m.is_double}
+    ys = {m.time: m.double for m in messages if m.name == TRUTH[1] and m.is_double}
+    t = sorted(set(xs) & set(ys))
+    return (np.array(t), np.array([xs[k] for k in t]), np.array([ys[k] for k in t]))
+
+
+FAULTS: dict[str, FaultMaker] = {
+    "heading_wander": heading_wander,
+    "heading_jumps": heading_jumps,
+    "heading_stuck": heading_stuck,
+    "ranges_gap": ranges_gap,
+    "beacon_moved": beacon_moved,
+    "range_outliers": range_outliers,
+    "gps_glitches": gps_glitches,
+}
+"""Every fault by name, in the order a report lists them."""
+
+
+def applies(name: str, layout: Layout) -> bool:
+    """Whether the fault has anything to act on in a mission of this layout."""
+    if name.startswith("heading"):
+        return bool(layout.orientation)
+    if name in ("ranges_gap", "range_outliers"):
+        return bool(layout.ranging)
+    if name == "beacon_moved":
+        return bool(layout.ranging and layout.beacons)
+    return bool(layout.position)
+
+
+def with_fault(name: str, messages: list[Message], layout: Layout,
+               seed: int = 1) -> list[Message]:
+    """The recording ``messages`` (in time order) with the fault ``name`` made on it."""
+    if name not in FAULTS:
+        raise ValueError(f"unknown fault {name!r} (known: {', '.join(FAULTS)})")
+    ordered = sorted(messages, key=lambda m: m.time)
+    if not ordered:
+        return ordered
+    return FAULTS[name](ordered, layout, np.random.default_rng(seed))

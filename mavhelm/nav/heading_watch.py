@@ -1,0 +1,132 @@
+"""Watching the orientation sensors against the motion (spec 2.2.10): heading faults.
+
+A heading sensor can be wrong in three ways the χ² gate alone does not see: its bias wanders
+(an odometry-integrated heading, a compass by a moving load), it jumps (a compass near a
+motor), it sticks (a frozen AHRS). The EKF's heading-bias state follows a slow bias; the rest
+shows in the data:
+
+- **The position data disagree** (the mean χ² distance of the last ``DOUBT_WINDOW`` beacon
+  ranges or fixes beyond ``DOUBT_NIS``): a wrong heading dead-reckons the vehicle away from
+  where the ranges put it. The heading is then doubted: its uncertainty (the bias state's,
+  when estimated) is raised to ``DOUBT_SIGMA``, so the position and body-velocity data
+  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``WANDER_TIME``;
+  without a bias state the heading readings' σ is scaled up instead (``HEADING_DOUBT_SCALE``
+  a doubt) for that time.
+- **The heading contradicts the motion** (its readings rejected for ``CONTRADICTION_TIME``):
+  it is down-weighted to nothing (rejected) and reported, and reported again when it agrees.
+- **Unobservable**: the bias is seen only through motion (body velocity against position);
+  a vehicle still for ``STILL_TIME`` cannot tell a bias from a heading, and the watch says so
+  rather than let the filter trust it.
+
+Pure logic: :class:`HeadingWatch` returns :class:`~mavhelm.nav.filter_safety.Decision` lines
+for the owner to publish.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Final
+
+from mavhelm.nav.filter_safety import HEADING, Decision
+
+DOUBT_WINDOW: Final = 20
+"""Position readings (ranges, fixes) the doubt looks back over."""
+DOUBT_NIS: Final = 2.0
+"""Their mean χ² distance per degree of freedom that makes the heading suspect: 1 when they
+agree with the estimate as their noise says (20 such in a row average over 2 one time in
+200), and a wrong heading grows it long before the gate refuses them. Only accepted readings
+count: a rejected one is an outlier (a GPS jump), the gate's business, not the heading's."""
+DOUBT_SIGMA: Final = math.radians(30.0)
+"""rad: the heading 1-σ a doubt raises it to (enough to take a wandering bias back)."""
+WANDER_NOISE: Final = 2e-2
+"""rad/√s: the bias random walk after a doubt (1.1° in a second, 10° in a minute and a half):
+a bias that wandered once may wander on. Measured on Plaza1 with the bias wandering to 180°
+(a random walk of its rate): 17.3 m RMS before the watch, 1.96 m with doubts and the steady
+1e-3 alone, 0.84 m with this; the recording without the fault stays at 0.47 m."""
+WANDER_TIME: Final = 300.0
+"""s: how long after the last doubt the bias is let wander so."""
+HEADING_DOUBT_SCALE: Final = 3.0
+"""Without a bias state, each doubt scales the heading readings' σ by this (for
+``WANDER_TIME``): the motion then decides the heading, as a bias state would let it."""
+HEADING_MAX_SCALE: Final = 100.0
+"""... up to this (a 0.5° compass counted as 50°: still a tie-break, never silenced)."""
+DOUBT_REPORT_GAP: Final = 30.0
+"""s: doubts closer than this are one episode, reported once."""
+CONTRADICTION_TIME: Final = 3.0
+"""s: a heading sensor rejected this long contradicts the motion."""
+STILL_SPEED: Final = 0.1
+"""m/s: slower than this the vehicle is still."""
+STILL_TIME: Final = 5.0
+"""s: still (or moving) this long before the bias's observability is said to change."""
+
+
+class HeadingWatch:
+    """Per time slice, ``position(t, nis)`` for each range or fix and ``heading(t,
+    sensor, accepted)`` for each heading reading, ``motion(t, speed)`` once; each returns a
+    decision to report, or None. ``doubt`` is True after a ``position`` call that asks the
+    owner to raise the heading's uncertainty."""
+
+    def __init__(self, estimates_bias: bool) -> None:
+        self.estimates_bias = estimates_bias
+        self._recent: deque[float] = deque(maxlen=DOUBT_WINDOW)
+        self._last_doubt = -math.inf
+        self.doubts = 0
+        self._rejected_since: dict[str, float] = {}
+        self._contradicting: set[str] = set()
+        self._moving: bool | None = None
+        self._since: float | None = None
+
+    def position(self, t: float, nis: float) -> Decision | None:
+        """A range or fix whose χ² distance per degree of freedom was ``nis``."""
+        self._recent.append(min(nis, 100.0))  # one wild outlier is not a trend
+        if (len(self._recent) < DOUBT_WINDOW
+                or sum(self._recent) < DOUBT_NIS * DOUBT_WINDOW):
+            return None
+        self._recent.clear()
+        self.doubts += 1
+        first = t - self._last_doubt > DOUBT_REPORT_GAP
+        self._last_doubt = t
+        if not first:
+            return None
+        what = "heading bias" if self.estimates_bias else "heading"
+        return Decision(t, HEADING, f"position data disagree with the dead reckoning: the "
+                        f"{what} is doubted (1-σ raised to {math.degrees(DOUBT_SIGMA):.0f}°) "
+                        "and taken from the motion")
+
+    @property
+    def doubted_at(self) -> float:
+        return self._last_doubt
+
+    def heading(self, t: float, sensor: str, accepted: bool) -> Decision | None:
+        if accepted:
+            self._rejected_since.pop(sensor, None)
+            if sensor in self._contradicting:
+                self._contradicting.discard(sensor)
+                return Decision(t, HEADING, f"{sensor} agrees with the motion again: used")
+            return None
+        since = self._rejected_since.setdefault(sensor, t)
+        if t - since >= CONTRADICTION_TIME and sensor not in self._contradicting:
+            self._contradicting.add(sensor)
+            return Decision(t, HEADING, f"{sensor} contradicts the motion (rejected for "
+                            f"{t - since:.0f} s): not used while it does")
+        return None
+
+    def motion(self, t: float, speed: float) -> Decision | None:
+        """The bias's observability: said when the vehicle has been still, or moving, for
+        ``STILL_TIME`` (nothing to say without a bias state)."""
+        if not self.estimates_bias:
+            return None
+        moving = speed >= STILL_SPEED
+        if self._since is None or moving != self._pending:
+            self._pending, self._since = moving, t
+            return None
+        if moving == self._moving or t - self._since < STILL_TIME:
+            return None
+        self._moving = moving
+        if moving:
+            return Decision(t, HEADING, "the vehicle moves: the heading bias is observable")
+        return Decision(t, HEADING, "the vehicle is still: the heading bias is unobservable, "
+                        "the heading sensor is trusted as it reads")
+
+    _pending: bool = False

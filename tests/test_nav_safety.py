@@ -1,0 +1,240 @@
+"""Filter safety (spec 2.2.9/2.2.11), the heading watch, channel down-weighting, the fault
+library and the NEES: each as pure logic, then the navigator's decisions on the bus."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import SimClock
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav.ekf import Beacon
+from mavhelm.nav.faults import FAULTS, Layout, applies, with_fault
+from mavhelm.nav.filter_safety import (
+    FAILED,
+    HEADING,
+    LSQ_TRUST,
+    REINITIALISED,
+    FilterSafety,
+)
+from mavhelm.nav.heading_watch import CONTRADICTION_TIME, DOUBT_WINDOW, HeadingWatch
+from mavhelm.nav.lsq import Fix
+from mavhelm.nav.navigator import Navigator
+from mavhelm.nav.noise_match import MAX_SCALE, WINDOW, NoiseMatch
+from mavhelm.nav.replay import NEES_BAND, nees
+
+
+def fix(t: float, x: float, y: float = 0.0) -> Fix:
+    return Fix(t, x, y, 1.0, 0.1, 3, ("A", "B", "C"))
+
+
+def test_a_sustained_disagreement_reinitialises_the_ekf_a_lone_one_does_not() -> None:
+    safety = FilterSafety(20.0, 30.0, 20.0)
+    assert safety.on_fix(fix(0.0, 30.0), (0.0, 0.0)) is None
+    assert safety.on_fix(fix(1.0, 5.0), (0.0, 0.0)) is None  # agreement: the count restarts
+    decisions = [safety.on_fix(fix(2.0 + k, 30.0), (0.0, 0.0)) for k in range(6)]
+    assert decisions[:5] == [None] * 5
+    last = decisions[5]
+    assert last is not None and last.kind == REINITIALISED
+    assert "MaxLSQEKFDeviation 20 m" in last.why and "30.0 m" in last.why
+
+
+def test_an_lsq_all_over_the_shop_is_untrusted_with_an_ekf_and_a_failure_without() -> None:
+    safety = FilterSafety(20.0, None, 20.0)
+    kinds = [safety.on_fix(fix(k, 50.0 * (k % 2)), (0.0, 0.0)) for k in range(9)]
+    untrusted = [d for d in kinds if d is not None]
+    assert [d.kind for d in untrusted] == [LSQ_TRUST] and "not trusted" in untrusted[0].why
+    # while untrusted its disagreements do not count: no re-initialisation however long
+    assert all(safety.on_fix(fix(10 + k, 50.0 * (k % 2)), (0.0, 0.0)) is None
+               for k in range(20))
+    lone = FilterSafety(20.0, None, 20.0)
+    kinds = [lone.on_fix(fix(k, 50.0 * (k % 2)), None) for k in range(9)]
+    assert kinds[-1] is not None and kinds[-1].kind == FAILED
+    assert "MaxMedianLSQShift" in kinds[-1].why
+
+
+def test_lsq_timeout_is_a_failure_when_unobservable_not_when_only_inconsistent() -> None:
+    safety = FilterSafety(20.0, 30.0, 20.0)
+    safety.start(0.0)
+    assert safety.timed_out(29.0, 3, None, True) is None
+    failure = safety.timed_out(31.0, 3, None, True)
+    assert failure is not None and failure.kind == FAILED and "LSQTimeOut 30 s" in failure.why
+    heard = safety.timed_out(31.0, 3, 25.0, True)  # beacons heard, fixes refused, EKF on
+    assert heard is not None and heard.kind == LSQ_TRUST
+    assert safety.timed_out(32.0, 3, 25.0, True) is None  # said once
+    assert safety.timed_out(32.0, 3, 25.0, False).kind == FAILED  # no EKF to carry on
+
+
+def test_the_heading_watch_reports_a_contradicting_heading_and_its_return() -> None:
+    watch = HeadingWatch(estimates_bias=True)
+    said = [watch.heading(t / 10, "compass", False) for t in range(0, 40)]
+    contradicts = [d for d in said if d is not None]
+    assert len(contradicts) == 1 and "contradicts the motion" in contradicts[0].why
+    assert contradicts[0].t == pytest.approx(CONTRADICTION_TIME)
+    back = watch.heading(5.0, "compass", True)
+    assert back is not None and back.kind == HEADING and "agrees" in back.why
+
+
+def test_position_data_disagreeing_doubt_the_heading_once_per_episode() -> None:
+    watch = HeadingWatch(estimates_bias=True)
+    assert all(watch.position(k, 0.3) is None for k in range(50))  # agreeing data
+    said = [watch.position(100 + k, 5.0) for k in range(3 * DOUBT_WINDOW)]
+    assert watch.doubts == 3 and sum(d is not None for d in said) == 1
+    assert "heading bias is doubted" in next(d for d in said if d is not None).why
+
+
+def test_the_bias_is_said_unobservable_while_the_vehicle_is_still() -> None:
+    watch = HeadingWatch(estimates_bias=True)
+    said = [watch.motion(t / 10, 0.0) for t in range(80)]
+    [still] = [d for d in said if d is not None]
+    assert "unobservable" in still.why
+    said = [watch.motion(10 + t / 10, 1.0) for t in range(80)]
+    [moving] = [d for d in said if d is not None]
+    assert "observable" in moving.why and "unobservable" not in moving.why
+    assert HeadingWatch(estimates_bias=False).motion(0.0, 0.0) is None
+
+
+def test_a_channel_disagreeing_beyond_its_noise_is_down_weighted_never_silenced() -> None:
+    noise = NoiseMatch()
+    for _ in range(WINDOW):
+        noise.observe("b1", 9.0)
+    assert noise.scale("b1") == pytest.approx(3.0)
+    for _ in range(20 * WINDOW):
+        noise.observe("b1", 1000.0)
+    assert noise.scale("b1") == MAX_SCALE
+    for _ in range(40 * WINDOW):
+        noise.observe("b1", 0.01)
+    assert noise.scale("b1") == 1.0  # back to the declared σ, never under it
+    assert noise.scale("other") == 1.0
+
+
+def test_nees_of_an_honest_covariance_is_two_and_inside_the_band() -> None:
+    rng = np.random.default_rng(3)
+    n = 5000
+    t = np.arange(n, dtype=float)
+    sx, sy = 2.0, 0.5
+    ex, ey = rng.normal(0, sx, n), rng.normal(0, sy, n)
+    honest = nees(t, ex, ey, [sx**2] * n, [0.0] * n, [sy**2] * n, t, np.zeros(n), np.zeros(n))
+    assert honest.mean == pytest.approx(2.0, abs=0.15)
+    assert honest.inside == pytest.approx(0.95, abs=0.015)
+    proud = nees(t, ex, ey, [0.25 * sx**2] * n, [0.0] * n, [0.25 * sy**2] * n, t,
+                 np.zeros(n), np.zeros(n))
+    assert proud.mean == pytest.approx(8.0, rel=0.1) and proud.above > 0.3
+    assert NEES_BAND[0] < 0.06 and 7.3 < NEES_BAND[1] < 7.4
+
+
+LAYOUT = Layout(("C",), ("R",), ("G",), (Beacon("1", 0.0, 0.0), Beacon("2", 50.0, 0.0)))
+
+
+def _log(seconds: int = 1200) -> list[Message]:
+    out = []
+    for k in range(seconds):
+        t = float(k)
+        out += [Message("C_HEADING", 90.0, t, "log"), Message("R_RANGE_1", 10.0, t, "log"),
+                Message("G_X", 1.0, t, "log"), Message("G_Y", 2.0, t, "log"),
+                Message("TRUTH_X", 0.0, t, "log"), Message("TRUTH_Y", 10.0, t, "log")]
+    return out
+
+
+def test_faults_are_deterministic_and_do_what_they_say() -> None:
+    log = _log()
+    assert set(FAULTS) == {"heading_wander", "heading_jumps", "heading_stuck", "ranges_gap",
+                           "beacon_moved", "range_outliers", "gps_glitches"}
+    for name in FAULTS:
+        assert applies(name, LAYOUT)
+        assert with_fault(name, log, LAYOUT, seed=7) == with_fault(name, log, LAYOUT, seed=7)
+    wander = [m.double for m in with_fault("heading_wander", log, LAYOUT)
+              if m.name == "C_HEADING"]
+    bias = [math.remainder(h - 90.0, 360.0) for h in wander]
+    assert max(abs(b) for b in bias) == pytest.approx(180.0, abs=1.0)
+    gap = [m.time for m in with_fault("ranges_gap", log, LAYOUT) if m.name == "R_RANGE_1"]
+    assert max(b - a for a, b in zip(gap, gap[1:], strict=False)) == pytest.approx(61.0)
+    moved = [m.double for m in with_fault("beacon_moved", log, LAYOUT)
+             if m.name == "R_RANGE_1"]
+    assert 0.0 < abs(moved[0] - 10.0) <= 5.0
+    glitched = [m.double for m in with_fault("gps_glitches", log, LAYOUT) if m.name == "G_X"]
+    assert 1.5 < float(np.std(glitched[:60])) < 2.5 and max(glitched) > 25.0
+    jumps = [m.double for m in with_fault("heading_jumps", log, LAYOUT) if m.name == "C_HEADING"]
+    assert sum(h != 90.0 for h in jumps) > 60
+    stuck = [m.double for m in with_fault("heading_stuck", log, LAYOUT) if m.name == "C_HEADING"]
+    assert stuck == [90.0] * len(stuck)  # a constant heading stuck is still the same
+    with pytest.raises(ValueError, match="unknown fault"):
+        with_fault("nothing", log, LAYOUT)
+    assert not applies("ranges_gap", Layout(("C",), (), ("G",), ()))
+
+
+NAV_LSQ = """
+ProcessConfig = pNav
+{
+    X = EKF @ 2, LSQ @ 5
+    Y = EKF @ 2, LSQ @ 5
+    SENSOR_RANGE = R -> ranger @ 0,0,0 ~ 0.3
+    BEACON = 1 @ 0,0,0
+    BEACON = 2 @ 100,0,0
+    BEACON = 3 @ 0,100,0
+    EKF_X = 60
+    EKF_Y = 60
+    EKF_SIGMA_XY = 0.5
+    MaxLSQEKFDeviation = 10
+    LSQTimeOut = NEVER
+}
+"""
+
+
+def test_the_navigator_posts_its_decisions_and_the_position_sigma() -> None:
+    """An EKF started confidently 36 m from the truth rejects the ranges; the LSQ disagrees
+    fix after fix, and the navigator re-initialises the EKF to it and says why."""
+    block = parse_mission(NAV_LSQ, "m.moos").process("pNav")
+    assert block is not None
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    nav = Navigator.from_block(bus, block)
+    bus.subscribe(nav.name, nav.subscriptions())
+    bus.subscribe("test", {"NAV_STATUS", "NAV_WARNING", "NAV_X", "NAV_X_STD", "NAV_Y_STD"})
+    truth = (30.0, 40.0)
+    got: list[Message] = []
+    for k in range(200):
+        t = 0.5 * k
+        clock.set(t)
+        name = "123"[k % 3]
+        bx, by = {"1": (0, 0), "2": (100, 0), "3": (0, 100)}[name]
+        bus.notify(f"R_RANGE_{name}", math.hypot(truth[0] - bx, truth[1] - by), "log", t)
+        nav.on_mail(bus.fetch(nav.name), t)
+        nav.iterate(t)
+        got += bus.fetch("test")
+    status = [m.string for m in got if m.name == "NAV_STATUS"]
+    assert any(s.startswith("reinitialised: EKF and LSQ disagreed for 6 fixes") for s in status)
+    assert any("reinitialised" in m.string for m in got if m.name == "NAV_WARNING")
+    x = [m for m in got if m.name == "NAV_X"]
+    std = {m.time: m.double for m in got if m.name == "NAV_X_STD"}
+    assert abs(x[-1].double - truth[0]) < 1.0
+    # the 1-σ of that very value: metres, since a still vehicle cannot tell its position from
+    # the beacons' range offsets the filter is learning
+    assert x[-1].time in std and 0.0 < std[x[-1].time] < 5.0
+
+
+def test_a_lost_ekf_goes_off_line_and_the_lsq_boots_it_again() -> None:
+    """MaxEKFPositionUncertainty with an LSQ running: the original's reset, not a failure."""
+    from mavhelm.nav.ekf import EKFConfig, Range
+    from mavhelm.nav.filter_safety import BOOTED, LOST
+    from mavhelm.nav.fusion import Fusion, FusionConfig, Start
+    from mavhelm.nav.sensors import Reading, SensorSpec
+
+    beacons = (Beacon("1", 0.0, 0.0), Beacon("2", 100.0, 0.0), Beacon("3", 0.0, 100.0))
+    fusion = Fusion(FusionConfig(ekf=EKFConfig(max_position_sigma=10.0), beacons=beacons,
+                                 start=Start(30.0, 40.0, sigma_xy=20.0), lsq_timeout=None))
+    ranger = SensorSpec("RANGE", "R", "ranger")
+    for k in range(60):
+        t = 0.5 * k
+        b = beacons[k % 3]
+        fusion.add(Reading(ranger, Range(t, b.name, math.hypot(30.0 - b.x, 40.0 - b.y), 0.3)),
+                   t)
+        fusion.step(t)
+    kinds = [d.kind for d in fusion.decisions]
+    assert kinds[:3] == [BOOTED, LOST, BOOTED] and fusion.failure is None
+    assert "(MaxEKFPositionUncertainty)" in fusion.decisions[1].why
+    assert "EKF off-line until the LSQ boots it again" in fusion.decisions[1].why
+    assert fusion.ekf is not None and fusion.ekf.position_sigma() < 10.0
