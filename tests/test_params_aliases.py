@@ -68,3 +68,22 @@ def test_the_reference_shows_aliases_refusals_and_boilerplate():
         in text
     assert "| `TopDown` | — | — | refused: no such engine |" in text
     assert "Also accepts the MOOS boilerplate `CommsTick` (see MOOS missions)." in text
+
+
+def test_the_original_filter_switches_are_honoured_or_refused_with_why():
+    """pNav's UseLSQ is LSQ; UseEKF = TRUE is what mavhelm does, FALSE is refused naming why."""
+    from mavhelm.core.mission import MissionError, parse_mission
+    from mavhelm.nav.navigator import NAV_SCHEMA
+
+    def read(lines: str) -> dict:
+        mission = parse_mission("ProcessConfig = pNav\n{\n" + lines + "}\n", "nav.moos")
+        return NAV_SCHEMA.read(mission.process("pNav"))
+
+    assert read("UseLSQ = FALSE\n")["lsq"] is False
+    assert read("UseEKF = TRUE\n")["use_ekf"] is True
+    try:
+        read("UseEKF = FALSE\n")
+    except MissionError as exc:
+        assert str(exc).startswith("nav.moos:3:") and "SENSOR_" in str(exc)
+    else:
+        raise AssertionError("UseEKF = FALSE accepted")

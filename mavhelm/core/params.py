@@ -431,6 +431,22 @@ class Refused(Kind):
 
 
 @dataclass(frozen=True)
+class AlwaysTrue(Boolean):
+    """A MOOS switch for what mavhelm always does: true is accepted, false refused with
+    ``reason`` (pNav's ``UseEKF``: the EKF runs whenever SENSOR_* lines are declared)."""
+
+    reason: str = ""
+
+    def describe(self) -> str:
+        return f"true (false is refused: {self.reason})"
+
+    def parse(self, entry: Entry) -> bool:
+        if not super().parse(entry):
+            raise entry.error(f"{entry.key} = false is not supported by mavhelm: {self.reason}")
+        return True
+
+
+@dataclass(frozen=True)
 class Mapped(Kind):
     """One word of a fixed set, each standing for a value (MOOS's ``EKF_VEHICLE_TYPE =
     MOBILE`` for ``EKF_MOBILE = true``)."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Final
 
-from mavhelm.core.params import Names, Param, Refused
+from mavhelm.core.params import AlwaysTrue, Names, Param, Refused
 
 ALWAYS_READ = Param("ALWAYS_READ", Names(), [], repeat=True, attr="always_read",
                     doc="variables pNav subscribes to beyond its queues' and sensors' (the "
@@ -17,6 +17,9 @@ _NO_THRUST_MODEL = ("mavhelm does not derive velocity from thrust: declare a SEN
                     "(a DVL, wheel odometry) or FIXEDSIDESLIP")
 
 ORIGINAL_ONLY: Final = (
+    Param("UseEKF", AlwaysTrue(reason="mavhelm's EKF runs whenever SENSOR_* lines are declared; "
+                               "leave them out for a navigator of priority queues only"),
+          True, attr="use_ekf", doc="the original's EKF switch: true only"),
     Param("Odometry", Refused("mavhelm posts no NAV_ODOMETRY; a wheel odometer is a "
                               "SENSOR_BODY_VEL"), None, attr="odometry"),
     Param("Pose", Refused("mavhelm posts no NAV_POSE; NAV_X, NAV_Y and NAV_YAW are posted "

@@ -84,7 +84,7 @@ MAX_EKF_POSITION_UNCERTAINTY = Param(
 EKF_MAX_SPEED = Param("EKF_MAX_SPEED", Number(0.1, 100.0), 10.0, "m/s", "speed states beyond "
                       "this are reset", attr="ekf_max_speed")
 LSQ = Param("LSQ", Boolean(), True, "", "run the LSQ on beacon ranges (boots and watches the "
-            "EKF)", attr="lsq")
+            "EKF)", attr="lsq", aliases=(Alias("UseLSQ"),))
 LSQ_WINDOW = Param("LSQ_WINDOW", Number(0.5, 60.0), 5.0, "s", "ranges older than this are not "
                    "combined into a fix", attr="lsq_window")
 LSQ_TIMEOUT = Param("LSQTimeOut", Seconds(3600.0), 30.0, "s", "no LSQ fix for this long is a "
