@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from mavhelm.companion.alog import read_alog
-from mavhelm.core.mission import load_mission
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import Block, load_mission
 from mavhelm.nav.ekf import EKF, Beacon, BodyVelocity, EKFConfig, Range, Yaw
 from mavhelm.nav.faults import FAULTS, applies, layout_of, with_fault
 from mavhelm.nav.replay import replay
@@ -52,16 +53,6 @@ def ekf_updates() -> None:
           f"({1e6 * seconds / n:.0f} us each)")
 
 
-DEAD_RECKONING = """
-    X = GPS @ 2, EKF @ 2
-    Y = GPS @ 2, EKF @ 2
-    Heading = HDG @ 1, INS @ 1
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
-    SENSOR_BODY_VEL    = DVL -> dvl @ 0,0,-0.3 ~ 0.02, 0.02
-    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
-"""
-"""The simulator tests' dead-reckoning pNav block (GPS, compass, DVL, gyro)."""
 
 EXTRA_TASKS = 17
 """Tasks added to the box patrol's three (XYPattern, OverallTimeOut, EndMission): 20 in all,
@@ -119,18 +110,22 @@ def tick_with_ekf() -> None:
             run.close()
 
 
+def _plaza(folder: Path) -> tuple[Block, list[Message]]:
+    """Plaza1 converted into ``folder``: its pNav block and its bus messages."""
+    alog, mission = folder / "p.alog", folder / "p.moos"
+    subprocess.run([sys.executable, str(REPO / "examples/plaza/convert.py"), str(PLAZA),
+                    str(alog), "--mission", str(mission)], check=True, capture_output=True)
+    block = load_mission(mission).process("pNav")
+    assert block is not None
+    return block, read_alog(alog)
+
+
 def plaza_replay() -> None:
     if not PLAZA.exists():
         print(f"Plaza replay: skipped, {PLAZA} is absent")
         return
     with tempfile.TemporaryDirectory() as folder:
-        alog, mission = Path(folder) / "p.alog", Path(folder) / "p.moos"
-        subprocess.run([sys.executable, str(REPO / "examples/plaza/convert.py"), str(PLAZA),
-                        str(alog), "--mission", str(mission)], check=True,
-                       capture_output=True)
-        block = load_mission(mission).process("pNav")
-        assert block is not None
-        messages = read_alog(alog)
+        block, messages = _plaza(Path(folder))
         walls = []
         for _ in range(3):  # a shared machine: the best of three is the code's own speed
             wall, cpu = time.perf_counter(), time.process_time()
@@ -150,13 +145,7 @@ def plaza_faults() -> None:
     if not PLAZA.exists():
         return
     with tempfile.TemporaryDirectory() as folder:
-        alog, mission = Path(folder) / "p.alog", Path(folder) / "p.moos"
-        subprocess.run([sys.executable, str(REPO / "examples/plaza/convert.py"), str(PLAZA),
-                        str(alog), "--mission", str(mission)], check=True,
-                       capture_output=True)
-        block = load_mission(mission).process("pNav")
-        assert block is not None
-        messages = read_alog(alog)
+        block, messages = _plaza(Path(folder))
         layout = layout_of(block)
         print("Plaza1 fault variants (NAV position against truth; NEES of the EKF position):")
         for name in ["none", *(f for f in FAULTS if applies(f, layout))]:

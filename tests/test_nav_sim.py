@@ -7,23 +7,10 @@ from __future__ import annotations
 
 import pytest
 
-from tests.support.nav_sim_rig import DEAD_RECKONING, start
+from tests.support.nav_sim_rig import DEAD_RECKONING, RANGES, start
 
 pytestmark = pytest.mark.slow
 
-RANGES = """
-    X = GPS @ 2, EKF @ 2
-    Y = GPS @ 2, EKF @ 2
-    Heading = HDG @ 1, INS @ 1
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
-    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
-    SENSOR_RANGE       = RNG -> radio @ 0,0,1 ~ 0.3
-    FIXEDSIDESLIP      = 0 @ 0.3
-    BEACON = 1 @ -60,-60,-1
-    BEACON = 2 @ 160,-50,-1
-    BEACON = 3 @ 50,160,-1
-"""
 
 OUTAGE = "gps_outage from 150 to 270\n"
 

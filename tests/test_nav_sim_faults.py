@@ -21,24 +21,12 @@ import sys
 
 import pytest
 
+from tests.support.nav_sim_rig import RANGES as RADIO_RANGES
 from tests.support.nav_sim_rig import start
 
 pytestmark = pytest.mark.slow
 
-RANGES = """
-    X = GPS @ 2, EKF @ 2
-    Y = GPS @ 2, EKF @ 2
-    Heading = HDG @ 1, INS @ 1
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
-    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
-    SENSOR_RANGE       = RNG -> radio @ 0,0,1 ~ 0.3
-    FIXEDSIDESLIP      = 0 @ 0.3
-    BEACON = 1 @ -60,-60,-1
-    BEACON = 2 @ 160,-50,-1
-    BEACON = 3 @ 50,160,-1
-    LSQTimeOut = NEVER
-"""
+RANGES = RADIO_RANGES + "    LSQTimeOut = NEVER\n"
 """The simulator tests' GPS + compass + gyro + radio ranges, every position from the EKF
 (the GPS queue source would otherwise pass the faulted fixes straight to NAV)."""
 

@@ -46,6 +46,21 @@ DEAD_RECKONING = """
 """The box patrol's pNav on GPS, compass, DVL and gyro (the EKF dead-reckons through a GPS
 outage): the simulator test's and the nav benchmark's."""
 
+RANGES = """
+    X = GPS @ 2, EKF @ 2
+    Y = GPS @ 2, EKF @ 2
+    Heading = HDG @ 1, INS @ 1
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
+    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
+    SENSOR_RANGE       = RNG -> radio @ 0,0,1 ~ 0.3
+    FIXEDSIDESLIP      = 0 @ 0.3
+    BEACON = 1 @ -60,-60,-1
+    BEACON = 2 @ 160,-50,-1
+    BEACON = 3 @ 50,160,-1
+"""
+"""GPS, compass, gyro and three radio beacons (no DVL): the simulator tests' ranging pNav."""
+
 BOX = """
     Task = XYPattern
     {
