@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from mavhelm.tuning.model import SpeedModel, YawModel
+from mavhelm.tuning.model import YawModel
 
 KPSI_MAX = 3.5
 """Fastest heading loop proposed, 1/s: the tracking benchmark's tuned loop (3.4 /s); faster

@@ -19,14 +19,17 @@ class Recording:
     thrust_command: list[tuple[float, float]] = field(default_factory=list)
     """Thrust sent, % of full."""
     speed: list[tuple[float, float]] = field(default_factory=list)
-    """Speed over the ground, m/s."""
+    """Speed over the ground from the navigation (NAV_SPEED), m/s."""
+    autopilot_speed: list[tuple[float, float]] = field(default_factory=list)
+    """The autopilot's own speed estimate, m/s: used when the navigation has no speed."""
 
     def since(self, t0: float) -> Recording:
         """The samples from ``t0`` on (the response before the first command says nothing)."""
         def keep(s: list[tuple[float, float]]) -> list[tuple[float, float]]:
             return [p for p in s if p[0] >= t0]
         return Recording(keep(self.turn_command), keep(self.turn_rate),
-                         keep(self.thrust_command), keep(self.speed))
+                         keep(self.thrust_command), keep(self.speed),
+                         keep(self.autopilot_speed))
 
 
 @dataclass(frozen=True)
@@ -73,7 +76,8 @@ def identify(recording: Recording, *, max_rudder: float, app_tick: float,
     starts = [t for t, _ in recording.turn_command + recording.thrust_command]
     data = recording.since(min(starts)) if starts else recording
     yaw = fit_yaw(Series.of(data.turn_command), Series.of(data.turn_rate))
-    speed = fit_speed(Series.of(data.thrust_command), Series.of(data.speed))
+    speed = fit_speed(Series.of(data.thrust_command),
+                      Series.of(data.speed or data.autopilot_speed))
     gains = design(yaw, max_rudder=max_rudder, app_tick=app_tick)
     prediction = predict(gains, yaw, speed.speed_at(cruise_thrust), max_rudder=max_rudder,
                          app_tick=app_tick)
