@@ -27,8 +27,8 @@ from pathlib import Path
 
 from mavhelm.companion.companion import Companion
 from mavhelm.core.app import App
-from mavhelm.core.bus import Message
-from mavhelm.core.clock import AutopilotClock, Clock, WallClock
+from mavhelm.core.bus import Bus, Message
+from mavhelm.core.clock import AutopilotClock, WallClock
 from mavhelm.core.mission import Mission, load_mission, parse_mission, read_text_file
 from mavhelm.tuning.identify import Recording, Tuning, identify
 from mavhelm.tuning.manoeuvre import STOP_FLAG, Box, Manoeuvre, tune_mission_text
@@ -39,15 +39,22 @@ LOOKAHEAD_S = 3.0
 """The manoeuvre is stopped when where the vehicle will be this many seconds on, at its
 speed and heading, is outside the box: enough for a boat at a few m/s to coast to a stop."""
 
-WATCHED = frozenset({"AP_CMD_YAW_RATE", "AP_CMD_THRUST", "INS_YAW_VEL", "NAV_SPEED", "AP_SPEED", "NAV_X",
-                     "NAV_Y", "NAV_HEADING", "HELM_STATE", "AP_MODE", "MISSION_ENDED"})
+RECORDED = {"AP_CMD_YAW_RATE": ("turn_command", math.degrees),
+            "AP_CMD_THRUST": ("thrust_command", lambda v: 100.0 * v),
+            "INS_YAW_VEL": ("turn_rate", lambda v: -math.degrees(v)),
+            "NAV_SPEED": ("speed", float), "AP_SPEED": ("autopilot_speed", float)}
+"""Bus variable → the Recording's list and the conversion: turn rates to deg/s clockwise,
+thrust to percent."""
+
+WATCHED = frozenset({*RECORDED, "NAV_X", "NAV_Y", "NAV_HEADING", "HELM_STATE", "AP_MODE",
+                     "MISSION_ENDED"})
 
 
 @dataclass
 class TuneWatch(App):
     """The tune's own app: recorder, box guard and abort on a mode change."""
 
-    bus: object
+    bus: Bus
     box: Box
     recording: Recording = field(default_factory=Recording)
     online_once: bool = False
@@ -90,7 +97,6 @@ class TuneWatch(App):
         v, t = m.double, m.time
         if not math.isfinite(v):
             return
-        recording = self.recording
         if m.name == "NAV_X":
             self._x = v
         elif m.name == "NAV_Y":
@@ -99,18 +105,9 @@ class TuneWatch(App):
             self._heading = v
         elif m.name in ("NAV_SPEED", "AP_SPEED"):
             self._speed = v
-        if self.ended or not self.online_once:
-            return
-        if m.name == "AP_CMD_YAW_RATE":
-            recording.turn_command.append((t, math.degrees(v)))
-        elif m.name == "AP_CMD_THRUST":
-            recording.thrust_command.append((t, 100.0 * v))
-        elif m.name == "INS_YAW_VEL":
-            recording.turn_rate.append((t, -math.degrees(v)))
-        elif m.name == "NAV_SPEED":
-            recording.speed.append((t, v))
-        elif m.name == "AP_SPEED":
-            recording.autopilot_speed.append((t, v))
+        if m.name in RECORDED and self.online_once and not self.ended:
+            series, convert = RECORDED[m.name]
+            getattr(self.recording, series).append((t, convert(v)))
 
     def iterate(self, now: float) -> None:
         if self._x is None or self._y is None:
@@ -185,7 +182,8 @@ def write_gains(mission_path: Path, tuning: Tuning, out: Path | None) -> tuple[P
     return out, backup
 
 
-def fly(session: TuneSession, clock: Clock, echo: Callable[[str], None]) -> None:
+def fly(session: TuneSession, clock: WallClock | AutopilotClock,
+        echo: Callable[[str], None]) -> None:
     """Tick the companion until the manoeuvre is over or aborted."""
     companion = session.companion
     next_tick = clock.now()

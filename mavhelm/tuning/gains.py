@@ -21,7 +21,8 @@ the rudder and turn-rate limits), not read off a formula.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 from mavhelm.tuning.model import YawModel
 
@@ -85,51 +86,62 @@ def _settle_time(t: list[float], err: list[float], tol: float) -> float:
     return 0.0
 
 
-def _heading_loop(gains: Gains, yaw: YawModel, max_rudder: float, app_tick: float):
-    """A closure stepping the heading loop: (desired heading, state, dt) → new state."""
-    per_rudder = gains.max_turn_rate / max_rudder
+@dataclass
+class _Loop:
+    """The simulated heading loop's state."""
 
-    def step(desired: float, state: dict[str, float], t: float, dt: float) -> None:
-        if t >= state["next_tick"]:
-            err = desired - state["psi"]
-            d_err = (err - state["last_err"]) / (1.0 / app_tick) if state["ticks"] else 0.0
-            state["last_err"], state["ticks"] = err, state["ticks"] + 1
+    psi: float = 0.0
+    rate: float = 0.0
+    command: float = 0.0
+    last_err: float = 0.0
+    ticks: int = 0
+    next_tick: float = 0.0
+    queue: list[tuple[float, float]] = field(default_factory=list)
+    """Commands in flight: (time they take effect, turn rate)."""
+
+
+def _heading_loop(gains: Gains, yaw: YawModel, max_rudder: float,
+                  app_tick: float) -> Callable[[float, _Loop, float, float], None]:
+    """A closure stepping the heading loop: (desired heading, state, t, dt)."""
+    per_rudder = gains.max_turn_rate / max_rudder
+    period = 1.0 / app_tick
+
+    def step(desired: float, s: _Loop, t: float, dt: float) -> None:
+        if t >= s.next_tick:
+            err = desired - s.psi
+            d_err = (err - s.last_err) / period if s.ticks else 0.0
+            s.last_err, s.ticks = err, s.ticks + 1
             rudder = max(-max_rudder, min(max_rudder, gains.yaw_kp * err + gains.yaw_kd * d_err))
-            state["queue"].append((t + yaw.delay, rudder * per_rudder))
-            state["next_tick"] += 1.0 / app_tick
-        while state["queue"] and state["queue"][0][0] <= t:
-            state["u"] = state["queue"].pop(0)[1]
-        target = max(-yaw.rate_limit, min(yaw.rate_limit, yaw.gain * state["u"]))
-        state["r"] += (target - state["r"]) * (1.0 - math.exp(-dt / yaw.time_constant))
-        state["psi"] += state["r"] * dt
+            s.queue.append((t + yaw.delay, rudder * per_rudder))
+            s.next_tick += period
+        while s.queue and s.queue[0][0] <= t:
+            s.command = s.queue.pop(0)[1]
+        target = max(-yaw.rate_limit, min(yaw.rate_limit, yaw.gain * s.command))
+        s.rate += (target - s.rate) * (1.0 - math.exp(-dt / yaw.time_constant))
+        s.psi += s.rate * dt
 
     return step
-
-
-def _fresh() -> dict:
-    return {"psi": 0.0, "r": 0.0, "u": 0.0, "last_err": 0.0, "ticks": 0, "next_tick": 0.0,
-            "queue": []}
 
 
 def predict(gains: Gains, yaw: YawModel, speed: float | None, *, max_rudder: float,
             app_tick: float, horizon: float = 40.0, dt: float = 0.01) -> Prediction:
     """Simulate a heading step and, at ``speed``, the capture of a line from 2 m off it."""
     step = _heading_loop(gains, yaw, max_rudder, app_tick)
-    state, ts, errs = _fresh(), [], []
+    state, ts, errs = _Loop(), [], []
     for i in range(int(horizon / dt)):
         step(HEADING_STEP, state, i * dt, dt)
         ts.append(i * dt)
-        errs.append(HEADING_STEP - state["psi"])
+        errs.append(HEADING_STEP - state.psi)
     heading_settle = _settle_time(ts, errs, HEADING_TOLERANCE)
     overshoot = max(0.0, -min(errs))
     line = None
     if speed is not None and speed > 0.05:
         lead = gains.lead(speed)
-        state, ts, xs = _fresh(), [], []
+        state, ts, xs = _Loop(), [], []
         y = LINE_OFFSET
         for i in range(int(horizon / dt)):
             step(-math.degrees(math.atan(y / lead)), state, i * dt, dt)
-            y += speed * math.sin(math.radians(state["psi"])) * dt
+            y += speed * math.sin(math.radians(state.psi)) * dt
             ts.append(i * dt)
             xs.append(y)
         line = _settle_time(ts, xs, LINE_TOLERANCE)
