@@ -70,7 +70,7 @@ from pathlib import Path
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.core.geodesy import Origin
-from mavhelm.core.mission import parse_mission
+from mavhelm.core.mission import load_mission, parse_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.tasks.geometry import Point2, lawnmower, track_position
 from tests.support.ardupilot import (
@@ -82,6 +82,7 @@ from tests.support.ardupilot import (
 )
 from tests.support.mission import NAV_AP_FALLBACK
 from tests.support.mission import mission_text as standard_mission
+from tests.support.processes import ConsoleProcess
 
 ROOT = Path(__file__).resolve().parent.parent
 LAT0, LON0 = 56.4120, -5.4760          # the mission's origin = the SITL's home
@@ -114,6 +115,7 @@ class Helm:
     app_tick: float = 10.0
     stream_hz: float = 0.0
     """ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT rate; 0: the bridge's defaults."""
+    yaw_kd: float = 0.2
 
 
 TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead=3.0,
@@ -179,7 +181,7 @@ def mission_text(kind: str, helm: Helm) -> str:
         imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
                   *streams],
         helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,
-              "YAW_PID_KP": f"{helm.yaw_kp:g}"},
+              "YAW_PID_KP": f"{helm.yaw_kp:g}", "YAW_PID_KD": f"{helm.yaw_kd:g}"},
         overall_timeout=400, clock_name="Clock", end_name="AllStop")
 
 
@@ -198,9 +200,11 @@ class Figures:
     """The truth measured: (t, x east, y north)."""
 
 
-def measure(track: list[tuple[float, float, float]]) -> Figures:
+def measure(track: list[tuple[float, float, float]], settle_xte: float = SETTLE_XTE) -> Figures:
     """Per-leg and overall XTE and the survey time from truth samples (t, x east, y north) in
-    time order. Each leg is looked for after the previous one's window."""
+    time order. Each leg is looked for after the previous one's window. ``settle_xte=inf`` is
+    the issue's window (from 10 m along, however far off the line, to 5 m before the end):
+    it counts the swing after each turn onto a leg."""
     fig = Figures(track=track)
     pooled: list[float] = []
     start_t = end_t = None
@@ -208,14 +212,14 @@ def measure(track: list[tuple[float, float, float]]) -> Figures:
     p1, p2 = LEGS[0]
     for s, (t, x, y) in enumerate(track):
         along, xte = track_position(p1, p2, (x, y))
-        if along >= 0.0 and abs(xte) < SETTLE_XTE:
+        if along >= 0.0 and abs(xte) < settle_xte:
             start_t, cursor = t, s
             break
     for p1, p2 in LEGS:
         length = math.dist(p1, p2)
         first = next((s for s in range(cursor, len(track))
                       if SETTLE_ALONG <= (tp := track_position(p1, p2, track[s][1:]))[0]
-                      <= length - END_MARGIN and abs(tp[1]) <= SETTLE_XTE), None)
+                      <= length - END_MARGIN and abs(tp[1]) <= settle_xte), None)
         if first is None:
             fig.legs.append(None)
             continue
@@ -245,12 +249,13 @@ def measure(track: list[tuple[float, float, float]]) -> Figures:
 
 # ---- mavhelm sim -------------------------------------------------------------------------------
 
-def run_sim(kind: str, helm: Helm, params: dict[str, float] | None = None) -> Figures:
+def run_sim(kind: str, helm: Helm, params: dict[str, float] | None = None,
+            settle_xte: float = SETTLE_XTE) -> Figures:
     mission = parse_mission(mission_text(kind, helm), f"bench_tracking_{kind}.moos")
     with SimulatedRun.start(mission, fast_start=True, start_heading=HOME_HEADING,
                             params=params) as run:
         ended = run.run_mission(max_time=SIM_MAX_S, linger=0.0)
-        fig = measure([(s.t, s.x, s.y) for s in run.track])
+        fig = measure([(s.t, s.x, s.y) for s in run.track], settle_xte)
         fig.wall_s = run.wall_seconds
     if not ended:
         fig.note = "the mission did not end"
@@ -282,12 +287,13 @@ def ask_for_truth(op: RealOperator) -> None:
 
 
 def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
-             params: dict[str, float]) -> Figures:
+             params: dict[str, float], model: str = "motorboat",
+             settle_xte: float = SETTLE_XTE) -> Figures:
     folder.mkdir(parents=True, exist_ok=True)
     mission = folder / f"{kind}.moos"
     mission.write_text(mission_text(kind, helm))
     origin = Origin(LAT0, LON0)
-    with RealSitl(folder / "sitl", binary=binary, model="motorboat", speedup=SPEEDUP,
+    with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
                   home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
             RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
         ask_for_truth(op)
@@ -310,12 +316,56 @@ def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
         if boot is not None and wall >= online:
             x, y = origin.to_local(lat * 1e-7, lng * 1e-7)
             track.append((boot / 1000.0, x, y))
-    fig = measure(track)
+    fig = measure(track, settle_xte)
     fig.wall_s = ended - online
     span = track[-1][0] - track[0][0] if len(track) > 1 else 0.0
     if span > 0:
         fig.note = f"truth {len(track) / span:.0f} Hz"
     return fig
+
+
+# ---- mavhelm tune on the real SITL ---------------------------------------------------------------
+
+TUNE_BOX = "--box=-60,-60,60,60"
+"""Open water around the SITL's home (the origin) for the identification manoeuvre."""
+
+
+def tune_real(binary: Path, folder: Path, params: dict[str, float], model: str) -> Helm:
+    """Run ``mavhelm tune`` on a fresh SITL of this model and conditions (at the survey's
+    full thrust) and return the helm settings it wrote."""
+    folder.mkdir(parents=True, exist_ok=True)
+    template = folder / "tune_me.moos"
+    template.write_text(mission_text("Survey", DEFAULTS))
+    tuned = folder / "tuned.moos"
+    with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
+                  home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
+            RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
+        op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
+        sitl.wait_listening(sitl.ports.serial1)
+        tune = ConsoleProcess([sys.executable, "-m", "mavhelm.cli", "tune", str(template),
+                               "--connect", f"tcp:127.0.0.1:{sitl.ports.serial1}",
+                               "--clock", "autopilot", TUNE_BOX, "--confirm-open-water",
+                               "--thrust", "50,100", "--write", str(tuned)],
+                              cwd=folder, log_path=folder / "tune.log")
+        try:
+            op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / SPEEDUP)
+            op.wait_until(lambda: not tune.running(), MISSION_WALL_S, "mavhelm tune to end")
+        finally:
+            code = tune.stop()
+    for line in tune.find_all(""):
+        if not line[:2].isdigit():  # the report, not the console's timestamped events
+            print(f"    {line}")
+    if code != 0 or not tuned.exists():
+        raise RuntimeError(f"mavhelm tune failed ({code}): {tune.output(10)}")
+    mission = load_mission(tuned)
+    helm, link = mission.process("pHelm"), mission.process("iMAVLink")
+    assert helm is not None and link is not None
+    survey = next(t for t in helm.tasks if t.name.lower() == "survey")
+    kp, kd = float(helm.require("YAW_PID_KP").value), float(helm.require("YAW_PID_KD").value)
+    rate, lead = float(link.require("MaxTurnRate").value), float(survey.require("Lead").value)
+    return Helm(f"mavhelm tune ({model}): MaxTurnRate {rate:g}, YAW_PID_KP {kp:g}, "
+                f"KD {kd:g}, Lead {lead:g}", yaw_kp=kp, lead=lead, max_turn_rate=rate,
+                yaw_kd=kd)
 
 
 # ---- the table ---------------------------------------------------------------------------------
@@ -353,6 +403,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--helm-defaults", action="store_true",
                         help="fly the product's defaults (MaxTurnRate 45, YAW_PID_KP 0.5, "
                              "Lead 5), not the tuned settings")
+    parser.add_argument("--tune", action="store_true",
+                        help="real SITL: run mavhelm tune first (per model and condition) "
+                             "and fly the gains it writes")
+    parser.add_argument("--model", default="motorboat",
+                        help="real SITL model: motorboat, motorboat-skid, rover, rover-skid")
+    parser.add_argument("--wp-speed", type=float, default=2.0,
+                        help="real SITL WP_SPEED, m/s (full thrust); default 2")
+    parser.add_argument("--window", choices=("bench", "issue"), default="bench",
+                        help="bench: each leg from the first point within 2 m of it and 10 m "
+                             "along; issue: from 10 m along whatever the offset (counts the "
+                             "swing after each turn), both to 5 m before the end")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "
@@ -374,6 +435,7 @@ def main(argv: list[str] | None = None) -> int:
                     helm.max_turn_rate, args.app_tick or helm.app_tick,
                     args.stream_hz or helm.stream_hz)
     binary = ardupilot_binary()
+    settle_xte = SETTLE_XTE if args.window == "bench" else math.inf
     rows: list[tuple[str, str, Figures]] = []
     t0 = time.monotonic()
     if binary is None and only & {"calm", "wind"}:
@@ -384,8 +446,16 @@ def main(argv: list[str] | None = None) -> int:
             for condition, params in (("calm", CALM), ("wind", WIND)):
                 if condition not in only:
                     continue
+                params = {**params, "WP_SPEED": args.wp_speed}
+                flown = helm
+                if args.tune:
+                    flown = tune_real(binary, logs / f"{condition}-tune", params, args.model)
+                    print(f"  real {condition}: {flown.name}", flush=True)
                 for kind in kinds:
-                    fig = run_real(binary, logs / f"{condition}-{kind}", kind, helm, params)
+                    fig = run_real(binary, logs / f"{condition}-{kind}", kind, flown, params,
+                                   args.model, settle_xte)
+                    if flown is not helm:
+                        fig.note = (fig.note + "; " if fig.note else "") + "tuned by mavhelm tune"
                     rows.append((f"real {condition}", kind, fig))
                     print(f"  real {condition} {kind}: RMS {fig.rms:.3f} m, max "
                           f"{fig.worst:.3f} m, {fig.time_s:.0f} s ({fig.note})", flush=True)
@@ -394,10 +464,11 @@ def main(argv: list[str] | None = None) -> int:
         if condition not in only:
             continue
         for kind in kinds:
-            fig = run_sim(kind, helm, params)
+            fig = run_sim(kind, helm, params, settle_xte)
             rows.append((label, kind, fig))
             print(f"  {label} {kind}: RMS {fig.rms:.3f} m, max {fig.worst:.3f} m, "
                   f"{fig.time_s:.0f} s", flush=True)
+    print(f"model {args.model}, WP_SPEED {args.wp_speed:g}, window {args.window}")
     print_table(helm, rows)
     print(f"({time.monotonic() - t0:.0f} s wall)")
     if args.dump is not None:
