@@ -264,6 +264,22 @@ class RouteTask(SteeringTask):
     def arrived(self, k: int, now: float) -> None:
         """Target k is reached (within its capture radius, or passed along the line)."""
 
+    def turn_in(self, k: int) -> float:
+        """How far before target k to start the line after it, in metres, as a skipper turns
+        in before a corner so as to come out of the turn on the new line rather than swing
+        past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
+        the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
+        once), at most one Lead and half the next line. 0 at the last target."""
+        p2, after = self.target(k), self.target(k + 1)
+        follower = self.follower
+        if p2 is None or after is None or follower is None:
+            return 0.0
+        turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
+        if turn < 1.0:
+            return 0.0
+        ahead = self.lead * math.tan(math.radians(min(turn, 90.0) / 2.0))
+        return min(ahead, self.lead, 0.5 * distance(p2, after), 0.5 * follower.length)
+
     # ---- driving -------------------------------------------------------------------------
 
     def start_line(self, k: int, p1: Point2, now: float) -> bool:
