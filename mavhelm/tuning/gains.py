@@ -7,8 +7,10 @@ limit r_max):
 - ``MaxTurnRate`` = r_max / K: full rudder asks for the fastest turn the vehicle makes, so
   every degree of rudder below that is a turn it can follow;
 - ``YAW_PID_KD`` = KP·τ puts the PD's zero on the rate lag, leaving the loop an integrator
-  with a delay, Kψ·e^(−sd)/s (Kψ = KP·MaxTurnRate/MAXRUDDER, per second);
-- Kψ for a 60° phase margin, (π/6)/d, with d the fitted delay plus half a helm tick, and no
+  with a delay, Kψ·e^(−sd)/s (Kψ = KP·MaxTurnRate/MAXRUDDER, per second); at most
+  ``KD_MAX_RATIO``·KP;
+- Kψ for a 60° phase margin, (π/6)/d, with d the fitted delay plus one helm tick (the
+  command waits for the next tick, and the fit's delay is only as fine as a tick), and no
   more than ``KPSI_MAX``;
 - the TrackLine/Survey ``Lead`` for a cross-track damping ζ = 0.9 at the task's speed
   (``mavhelm.tasks.trackline``: ζ = ½·√(Kψ·Lead/V)), plus the distance run during the
@@ -26,16 +28,18 @@ from dataclasses import dataclass, field
 
 from mavhelm.tuning.model import YawModel
 
-KPSI_MAX = 3.5
-"""Fastest heading loop proposed, 1/s: the tracking benchmark's tuned loop (3.4 /s); faster
-swung after turns on the real SITL."""
+KPSI_MAX = 2.5
+"""Fastest heading loop proposed, 1/s. On the real SITL motorboat a tune that fitted a 0.1 s
+delay and proposed 3.5 /s (with KD 0.8 × KP) swung ±3.6 m after turns; 2.1–2.6 /s held
+0.04 m RMS."""
 PHASE_MARGIN = math.pi / 6.0
 """Phase margin kept in the heading loop: 60°, lightly damped at most."""
 ZETA = 0.9
 """Damping of the cross-track loop the Lead is chosen for."""
 MIN_LEAD = 1.0
-KD_MAX_RATIO = 2.0
-"""KD at most this many times KP: a longer derivative only amplifies heading noise."""
+KD_MAX_RATIO = 0.6
+"""KD at most this many times KP: the helm's derivative is a 5-tap average of heading
+differences, itself two ticks late, so a longer one adds lag rather than cancelling it."""
 HEADING_STEP = 30.0
 HEADING_TOLERANCE = 1.0
 LINE_OFFSET = 2.0
@@ -50,7 +54,7 @@ class Gains:
     loop_gain: float
     """Kψ, 1/s: degrees per second of turn per degree of heading error."""
     delay: float
-    """Delay the loop was designed for, s (fitted delay plus half a helm tick)."""
+    """Delay the loop was designed for, s (fitted delay plus one helm tick)."""
 
     def lead(self, speed: float) -> float:
         """The TrackLine/Survey Lead (m) for a task run at ``speed`` (m/s)."""
@@ -61,7 +65,7 @@ class Gains:
 def design(yaw: YawModel, *, max_rudder: float, app_tick: float) -> Gains:
     """The heading-loop gains and MaxTurnRate for this vehicle under this helm."""
     max_turn_rate = max(5.0, min(180.0, round(yaw.rate_limit / max(yaw.gain, 1e-3))))
-    delay = yaw.delay + 0.5 / app_tick
+    delay = yaw.delay + 1.0 / app_tick
     kpsi = min(KPSI_MAX, PHASE_MARGIN / max(delay, 1e-3))
     loop_per_rudder = yaw.gain * max_turn_rate / max_rudder
     kp = kpsi / loop_per_rudder
