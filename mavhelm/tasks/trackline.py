@@ -74,6 +74,16 @@ cannot fix, an *offset held*:
 In the simulator, 0.3 m/s of current across the line leaves pure pursuit 0.75 m off (RMS);
 with the integral it holds 0.2 m, as in still water.
 
+The turn onto a line. A route that knows its next line turns in to it as a skipper does:
+Survey leaves the line onto each leg's start ``RouteTask.turn_in`` before it (Lead ·
+tan(Δ/2) for a turn of Δ, at most one Lead and half of either line), so the carrot is already
+on the leg as far ahead as the vehicle is off it and pure pursuit brings it out of the turn on
+the leg rather than past it; a leg's own end is still flown to (its capture is 1 m), so legs
+are surveyed whole. On the real SITL motorboat at the defaults (calm, WP_SPEED 2, XTE from
+10 m along each leg to 5 m before its end) this took the Survey from 0.24 m RMS and 1.64 m max
+to 0.07 and 0.48 m. A chain of separate TrackLine tasks cannot do this (a task does not know
+the next one's line); its Radius is its turn-in.
+
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
 a Survey from 0.11 to 0.07 m RMS on the real SITL; at the tuned settings it made it no
