@@ -264,8 +264,8 @@ def run_sim(kind: str, helm: Helm, params: dict[str, float] | None = None,
 
 # ---- the real SITL -----------------------------------------------------------------------------
 
-CALM = {"WP_SPEED": 2, "SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
-WIND = {"WP_SPEED": 2}
+CALM: dict[str, float] = {"WP_SPEED": 2, "SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0}
+WIND: dict[str, float] = {"WP_SPEED": 2}
 
 
 def ask_for_truth(op: RealOperator) -> None:
@@ -341,6 +341,7 @@ def tune_real(binary: Path, folder: Path, params: dict[str, float], model: str) 
                   home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
             RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
         op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
+        assert sitl.ports is not None
         sitl.wait_listening(sitl.ports.serial1)
         tune = ConsoleProcess([sys.executable, "-m", "mavhelm.cli", "tune", str(template),
                                "--connect", f"tcp:127.0.0.1:{sitl.ports.serial1}",
@@ -444,17 +445,18 @@ def main(argv: list[str] | None = None) -> int:
     if binary is not None:
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-tracking-") as tmp:
             logs = args.logs or Path(tmp)
-            for condition, params in (("calm", CALM), ("wind", WIND)):
+            for condition, stock in (("calm", CALM), ("wind", WIND)):
                 if condition not in only:
                     continue
-                params = {**params, "WP_SPEED": args.wp_speed}
+                real_params = {**stock, "WP_SPEED": args.wp_speed}
                 flown = helm
                 if args.tune:
-                    flown = tune_real(binary, logs / f"{condition}-tune", params, args.model)
+                    flown = tune_real(binary, logs / f"{condition}-tune", real_params,
+                                      args.model)
                     print(f"  real {condition}: {flown.name}", flush=True)
                 for kind in kinds:
-                    fig = run_real(binary, logs / f"{condition}-{kind}", kind, flown, params,
-                                   args.model, settle_xte)
+                    fig = run_real(binary, logs / f"{condition}-{kind}", kind, flown,
+                                   real_params, args.model, settle_xte)
                     if flown is not helm:
                         fig.note = (fig.note + "; " if fig.note else "") + "tuned by mavhelm tune"
                     rows.append((f"real {condition}", kind, fig))
