@@ -51,6 +51,27 @@ is close).
 ``--helm-defaults`` flies the product's defaults instead (MaxTurnRate 45, YAW_PID_KP 0.5,
 Lead 5).
 
+``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
+box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
+(motorboat, motorboat-skid, rover, rover-skid) and ``--wp-speed`` pick the vehicle;
+``--window issue`` measures each leg from 10 m along it whatever the offset (so the swing after
+the turn onto it counts) to 5 m before its end. Measured so (real SITL, one run each, XTE RMS /
+max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2):
+
+    model           WP_SPEED weather  helm      Survey       TrackLines
+    motorboat       2        calm     defaults  0.09 / 0.40  0.12 / 1.09
+    motorboat       2        calm     tuned     0.02 / 0.13  0.02 / 0.15
+    motorboat       2        wind     defaults  0.08 / 0.52  0.14 / 1.15
+    motorboat       2        wind     tuned     0.04 / 0.33  0.05 / 0.36
+    motorboat       5        calm     tuned     0.09 / 0.58  0.48 / 2.42
+    motorboat-skid  2        calm     tuned     0.02 / 0.18  0.03 / 0.30
+    rover           2        calm     tuned     0.02 / 0.21  0.04 / 0.39
+    rover-skid      2        calm     tuned     0.02 / 0.20  0.02 / 0.19
+
+(``tuned``: by ``mavhelm tune`` in that run; a tune's gains vary a little from run to run.)
+The chained TrackLines (Radius 1 m) cannot turn in to the next line, so the swing after each
+turn stays in their maximum; the Survey turns in (``mavhelm.tasks.trackline``).
+
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
 ``MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover .venv/bin/python -m benchmarks.bench_tracking``
