@@ -416,6 +416,30 @@ def print_table(helm: Helm, rows: list[tuple[str, str, Figures]],
     print("floor: <= 0.20 m RMS in calm water, <= 0.35 m in the stock wind; goal <= 0.10 m")
 
 
+def real_rows(binary: Path, logs: Path, args: argparse.Namespace, helm: Helm, only: set[str],
+              kinds: list[str], settle_xte: float) -> list[tuple[str, str, Figures]]:
+    """The real-SITL rows: each condition asked for, tuned first by ``mavhelm tune`` if
+    ``--tune``."""
+    rows: list[tuple[str, str, Figures]] = []
+    for condition, stock in (("calm", CALM), ("wind", WIND)):
+        if condition not in only:
+            continue
+        real_params = {**stock, "WP_SPEED": args.wp_speed}
+        flown = helm
+        if args.tune:
+            flown = tune_real(binary, logs / f"{condition}-tune", real_params, args.model)
+            print(f"  real {condition}: {flown.name}", flush=True)
+        for kind in kinds:
+            fig = run_real(binary, logs / f"{condition}-{kind}", kind, flown, real_params,
+                           args.model, settle_xte)
+            if flown is not helm:
+                fig.note = (fig.note + "; " if fig.note else "") + "tuned by mavhelm tune"
+            rows.append((f"real {condition}", kind, fig))
+            print(f"  real {condition} {kind}: RMS {fig.rms:.3f} m, max "
+                  f"{fig.worst:.3f} m, {fig.time_s:.0f} s ({fig.note})", flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", default="calm,wind,sim,exact",
@@ -465,24 +489,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bench_tracking: {SKIP_REASON}: no real-SITL rows, the simulator's only")
     if binary is not None:
         with tempfile.TemporaryDirectory(prefix="mavhelm-bench-tracking-") as tmp:
-            logs = args.logs or Path(tmp)
-            for condition, stock in (("calm", CALM), ("wind", WIND)):
-                if condition not in only:
-                    continue
-                real_params = {**stock, "WP_SPEED": args.wp_speed}
-                flown = helm
-                if args.tune:
-                    flown = tune_real(binary, logs / f"{condition}-tune", real_params,
-                                      args.model)
-                    print(f"  real {condition}: {flown.name}", flush=True)
-                for kind in kinds:
-                    fig = run_real(binary, logs / f"{condition}-{kind}", kind, flown,
-                                   real_params, args.model, settle_xte)
-                    if flown is not helm:
-                        fig.note = (fig.note + "; " if fig.note else "") + "tuned by mavhelm tune"
-                    rows.append((f"real {condition}", kind, fig))
-                    print(f"  real {condition} {kind}: RMS {fig.rms:.3f} m, max "
-                          f"{fig.worst:.3f} m, {fig.time_s:.0f} s ({fig.note})", flush=True)
+            rows += real_rows(binary, args.logs or Path(tmp), args, helm, only, kinds,
+                              settle_xte)
     for condition, label, params in (("sim", "mavhelm sim", None),
                                      ("exact", "sim, GPS exact", {"SIM_GPS_NOISE": 0.0})):
         if condition not in only:
