@@ -63,12 +63,18 @@ max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2):
     motorboat       2        calm     tuned     0.02 / 0.13  0.02 / 0.15
     motorboat       2        wind     defaults  0.08 / 0.52  0.14 / 1.15
     motorboat       2        wind     tuned     0.04 / 0.33  0.05 / 0.36
+    motorboat       5        calm     defaults  0.21 / 1.27  0.39 / 2.48
     motorboat       5        calm     tuned     0.09 / 0.58  0.48 / 2.42
+    motorboat-skid  2        calm     defaults  0.06 / 0.36  0.16 / 1.25
     motorboat-skid  2        calm     tuned     0.02 / 0.18  0.03 / 0.30
+    rover           2        calm     defaults  0.06 / 0.39  0.12 / 1.08
     rover           2        calm     tuned     0.02 / 0.21  0.04 / 0.39
+    rover-skid      2        calm     defaults  0.06 / 0.36  0.12 / 1.01
     rover-skid      2        calm     tuned     0.02 / 0.20  0.02 / 0.19
 
-(``tuned``: by ``mavhelm tune`` in that run; a tune's gains vary a little from run to run.)
+(``tuned``: by ``mavhelm tune`` in that run; a tune's gains vary a little from run to run.
+At 5 m/s the defaults' Survey measured 1.27–1.39 m max in three runs, and 14.6 m on its last
+leg in a fourth, not understood.)
 The chained TrackLines (Radius 1 m) cannot turn in to the next line, so the swing after each
 turn stays in their maximum; the Survey turns in (``mavhelm.tasks.trackline``).
 
