@@ -351,6 +351,14 @@ def build_parser() -> argparse.ArgumentParser:
     runner.add_arguments(sim)
     sim.set_defaults(func=_sim)
 
+    from mavhelm.companion import tune
+
+    tune_parser = sub.add_parser("tune", help="identify the vehicle in GUIDED inside a box you "
+                                 "confirm, and print (or write) the heading gains, MaxTurnRate "
+                                 "and Lead that suit it")
+    tune.add_arguments(tune_parser)
+    tune_parser.set_defaults(func=tune.run)
+
     from mavhelm.sitl import instruments_runner
 
     instruments = sub.add_parser("instruments", help="the serial instruments (GPS, heading, "

@@ -2,9 +2,10 @@
 
     core                       imports only core
     tasks, nav                 import core (and themselves)
-    companion                  imports core, tasks, nav (and itself)
+    tuning                     imports core (and itself)
+    companion                  imports core, tasks, nav, tuning (and itself)
     sitl (the simulator)       imports core (and itself)
-    demo                       imports core, tasks, nav, companion, sitl (and itself)
+    demo                       imports core, tasks, nav, tuning, companion, sitl (and itself)
     cli.py                     imports anything
 
 So nothing but cli.py imports ``mavhelm.cli`` or ``mavhelm.demo``, and nothing outside demo and
@@ -32,16 +33,17 @@ ROOT = "mavhelm"
 """The layer of ``mavhelm/__init__.py`` and of ``import mavhelm`` / ``from mavhelm import
 __version__``."""
 
-LAYERS = ("core", "tasks", "nav", "companion", "sitl", "demo", "cli")
+LAYERS = ("core", "tasks", "nav", "tuning", "companion", "sitl", "demo", "cli")
 
 ALLOWED: dict[str, frozenset[str]] = {
     ROOT: frozenset({ROOT, "core"}),
     "core": frozenset({ROOT, "core"}),
     "tasks": frozenset({ROOT, "core", "tasks"}),
     "nav": frozenset({ROOT, "core", "nav"}),
-    "companion": frozenset({ROOT, "core", "tasks", "nav", "companion"}),
+    "tuning": frozenset({ROOT, "core", "tuning"}),
+    "companion": frozenset({ROOT, "core", "tasks", "nav", "tuning", "companion"}),
     "sitl": frozenset({ROOT, "core", "sitl"}),
-    "demo": frozenset({ROOT, "core", "tasks", "nav", "companion", "sitl", "demo"}),
+    "demo": frozenset({ROOT, "core", "tasks", "nav", "tuning", "companion", "sitl", "demo"}),
     "cli": frozenset({ROOT, *LAYERS}),
 }
 

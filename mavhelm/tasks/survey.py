@@ -77,7 +77,8 @@ class Survey(RouteTask):
         return self.legs[leg][end]
 
     def capture_radius(self, k: int) -> float:
-        return CAPTURE
+        """A leg's start (even k) is turned in to; a leg's end is flown to (CAPTURE)."""
+        return max(CAPTURE, self.turn_in(k)) if k % 2 == 0 else CAPTURE
 
     def begin(self, k: int, now: float) -> None:
         if k % 2 == 1:

@@ -1,0 +1,152 @@
+"""The vehicle's response, fitted from what the helm sent and what the autopilot reported.
+
+Two first-order-plus-delay models, the simplest that predict what the heading loop and the
+line follower need:
+
+- turn rate:  τ·r' = sat(K·u(t − d), ±r_max) − r   (u: the commanded turn rate, deg/s);
+- speed:      τv·v' = Kv·T(t − dv) − v             (T: the commanded thrust, %).
+
+They are fitted by simulating the model over the recorded command and matching the recorded
+response (``scipy.optimize.least_squares``), so steps, zig-zags and saturation all count.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+MIN_SAMPLES = 20
+"""Fewer samples than this (2 s at 10 Hz) cannot tell a time constant from a delay."""
+
+
+class FitError(ValueError):
+    """The recording cannot identify the model (too short, no excitation, no response)."""
+
+
+@dataclass(frozen=True)
+class Series:
+    """A signal sampled at irregular times (seconds, increasing)."""
+
+    t: np.ndarray
+    y: np.ndarray
+
+    @classmethod
+    def of(cls, samples: Sequence[tuple[float, float]]) -> Series:
+        clean = sorted((t, y) for t, y in samples if math.isfinite(t) and math.isfinite(y))
+        arr = np.array(clean, dtype=float).reshape(-1, 2)
+        return cls(arr[:, 0], arr[:, 1])
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def held(self, at: np.ndarray) -> np.ndarray:
+        """The value in force at each of ``at`` (a command holds until the next one)."""
+        idx = np.searchsorted(self.t, at, side="right") - 1
+        return np.where(idx >= 0, self.y[np.clip(idx, 0, None)], 0.0)
+
+
+@dataclass(frozen=True)
+class YawModel:
+    gain: float
+    """K: turn rate delivered per unit of turn rate commanded (1 = as commanded)."""
+    time_constant: float
+    """τ, seconds."""
+    delay: float
+    """d, seconds: from the helm's command to the first response in the telemetry."""
+    rate_limit: float
+    """r_max, deg/s: the fastest the vehicle turned."""
+    rms: float
+    """RMS of the fit's residual, deg/s."""
+
+
+@dataclass(frozen=True)
+class SpeedModel:
+    gain: float
+    """Kv, m/s per % thrust (speed at full thrust / 100)."""
+    time_constant: float
+    delay: float
+    rms: float
+
+    def speed_at(self, thrust: float) -> float:
+        return self.gain * thrust
+
+
+def simulate_lag(command: Series, t: np.ndarray, gain: float, tau: float, delay: float,
+                 limit: float = math.inf, start: float = 0.0) -> np.ndarray:
+    """The first-order-plus-delay response at times ``t`` to a held ``command``; the
+    exact discretisation of each interval (a held input), so uneven sampling is fine."""
+    u = np.clip(gain * command.held(t - delay), -limit, limit)
+    out = np.empty_like(t)
+    y = start
+    for i in range(len(t)):
+        if i:
+            a = math.exp(-(t[i] - t[i - 1]) / tau)
+            y = a * y + (1.0 - a) * u[i - 1]
+        out[i] = y
+    return out
+
+
+def _check(command: Series, response: Series, what: str) -> None:
+    if len(response) < MIN_SAMPLES or len(command) < 2:
+        raise FitError(f"{what}: {len(response)} samples of the response, {len(command)} of "
+                       f"the command: too short a recording to fit")
+    if float(np.ptp(command.y)) <= 1e-6:
+        raise FitError(f"{what}: the command never changed, nothing to identify")
+
+
+DELAYS = np.arange(0.0, 1.5001, 0.05)
+"""The delays tried, s: the residual is flat between command samples, so a delay is searched,
+not descended (0.05 s is half a helm tick at 10 Hz)."""
+
+
+def _best_delay(fit_at):
+    """(delay, fit) of the delay whose fit leaves the least residual."""
+    fits = [(float(d), fit_at(float(d))) for d in DELAYS]
+    return min(fits, key=lambda df: float(df[1].cost))
+
+
+def fit_yaw(command: Series, response: Series) -> YawModel:
+    """Fit τ, d, K and r_max to the turn rate (deg/s, clockwise) commanded and observed."""
+    _check(command, response, "turn rate")
+    t, r = response.t, response.y
+    peak = float(np.max(np.abs(r)))
+    if peak < 1.0:
+        raise FitError(f"turn rate: the vehicle never turned faster than {peak:.2f} deg/s")
+
+    def fit_at(delay: float):
+        def residual(p: np.ndarray) -> np.ndarray:
+            return simulate_lag(command, t, p[0], p[1], delay, p[2], start=r[0]) - r
+        return least_squares(residual, np.array([1.0, 0.5, peak * 1.05]),
+                             bounds=([0.05, 0.02, 0.5], [5.0, 20.0, 720.0]),
+                             x_scale=[1.0, 1.0, peak])
+
+    delay, fit = _best_delay(fit_at)
+    gain, tau, limit = (float(v) for v in fit.x)
+    limit = min(limit, peak * 1.05)  # never claim a rate the vehicle was not seen to reach
+    rms = float(np.sqrt(np.mean(fit.fun ** 2)))
+    return YawModel(gain, tau, delay, limit, rms)
+
+
+def fit_speed(command: Series, response: Series) -> SpeedModel:
+    """Fit τv, dv and Kv to the thrust (%) commanded and the speed (m/s) observed."""
+    _check(command, response, "speed")
+    t, v = response.t, response.y
+    if float(np.max(v)) < 0.1:
+        raise FitError("speed: the vehicle never made way")
+
+    top = float(np.max(np.abs(command.y))) or 1.0
+    guess = np.array([float(np.max(v)) / top, 2.0])
+
+    def fit_at(delay: float):
+        def residual(p: np.ndarray) -> np.ndarray:
+            return simulate_lag(command, t, p[0], p[1], delay, start=v[0]) - v
+        return least_squares(residual, guess, bounds=([1e-4, 0.05], [1.0, 60.0]),
+                             x_scale=[guess[0], 1.0])
+
+    delay, fit = _best_delay(fit_at)
+    gain, tau = (float(x) for x in fit.x)
+    return SpeedModel(gain, tau, delay, float(np.sqrt(np.mean(fit.fun ** 2))))
