@@ -59,3 +59,13 @@ def test_every_default_is_a_value_its_own_declaration_accepts(schema):
 def test_every_parameter_says_what_it_is(schema):
     for p in schema.params:
         assert p.doc, f"{schema.owner}: {p.name} has no doc line"
+
+
+def test_every_row_of_a_parameter_table_has_its_five_cells():
+    """A `|` inside a cell (``Allow``'s ``a | b`` syntax) is escaped, so the table holds."""
+    import re
+
+    for line in reference().splitlines():
+        if line.startswith("| `") and line.count("|") > 3:
+            cells = re.split(r"(?<!\\)\|", line)[1:-1]
+            assert len(cells) in (2, 3, 5), line

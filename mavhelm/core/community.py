@@ -17,6 +17,9 @@ class Community:
         self.ticks = 0
         self.profile = profile
         self.app_seconds: dict[str, list[float]] = defaultdict(list)
+        self.tick_started = 0.0
+        """``time.perf_counter()`` when this tick began: an app with work that can wait (a
+        picture) sees how busy the tick already is."""
         self._subscribed: dict[str, frozenset[str]] = {}
 
     def tick(self, now: float) -> None:
@@ -25,6 +28,7 @@ class Community:
         Subscribing all first means that even on the first tick, and when a task has just
         widened the helm's interests, nothing an earlier app posts is lost to a later one.
         """
+        self.tick_started = time.perf_counter()
         for app in self.apps:
             names = app.subscriptions()
             last = self._subscribed.get(app.name)

@@ -711,8 +711,9 @@ class Schema:
                       "| --- | --- | --- | --- | --- |"]
             for p in self.params:
                 accepted = p.kind.describe() + ("; may repeat" if p.repeat else "")
-                lines.append(f"| `{p.name}` | {p.unit or '—'} | {p.describe_default()} | "
-                             f"{accepted} | {p.meaning()} |")
+                cells = (f"`{p.name}`", p.unit or "—", p.describe_default(), accepted,
+                         p.meaning())
+                lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
             lines.append("")
         if self.moos:
             names = ", ".join(f"`{p.name}`" for p in self.moos)

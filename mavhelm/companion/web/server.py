@@ -5,10 +5,14 @@ page and pushes frames to every open page over a websocket. It runs in a child p
 thread: a thread would share the interpreter lock with the companion's tick, and on a busy
 computer a server thread that the kernel pauses while it holds that lock stalls the tick for
 milliseconds. The two talk over a local socket pair that keeps message boundaries
-(SOCK_SEQPACKET): the companion sends each frame without waiting (``WebProcess.offer``; a frame
-the socket has no room for is dropped and counted) and reads the page's actions without waiting
-(``WebProcess.actions``). The server, at a lower priority, reads the frames on its own timer
-rather than waking on each, so sending one never hands the processor to it. A slow browser
+(SOCK_SEQPACKET): the companion sends each tick's facts pickled, without waiting
+(``WebProcess.offer``; what the socket has no room for is dropped and counted), and reads the
+page's actions, and any frame the server could not make, without waiting (``WebProcess.actions``,
+``WebProcess.problems``). The server makes the page's frames from the facts (``frames.py``) and
+encodes them, so that work stays off the helm's tick; pickle is safe on this channel, whose two
+ends are the companion and the child it started. The server, at a lower priority, reads the
+channel on its own timer rather than waking on each message, so a send never hands the
+processor to it. A slow browser
 only misses frames: each page's send runs on its own, and a page still busy with the last
 frame skips the next. The child exits when the companion's end of the socket closes, so it
 never outlives the companion.
@@ -22,6 +26,7 @@ import contextlib
 import hmac
 import json
 import os
+import pickle
 import select
 import socket
 import subprocess
@@ -31,6 +36,7 @@ from importlib import resources
 from typing import Any
 
 from mavhelm.companion.web.control import ACTIONS, Action
+from mavhelm.companion.web.frames import Frames
 
 TOKEN_HEADER = "X-Mavhelm-Token"
 """The control token travels in a header: a page from another site cannot set one without the
@@ -82,6 +88,8 @@ class WebProcess:
         self.token = token
         self.dropped = 0
         self.sent = 0
+        self._problems: list[str] = []
+        self._readable = select.poll()
         self._sock: socket.socket | None = None
         self._proc: subprocess.Popen | None = None
 
@@ -109,12 +117,14 @@ class WebProcess:
             raise OSError(reply.get("error", f"the web server did not start in {timeout:g} s"))
         self.port = int(reply["listening"])
         ours.setblocking(False)
+        self._readable.register(ours, select.POLLIN)
 
-    def offer(self, frame: dict[str, Any]) -> bool:
-        """Send ``frame`` if the socket has room now; else drop it (counted)."""
+    def offer(self, message: dict[str, Any]) -> bool:
+        """Send ``message`` (a tick's facts, ``type`` "facts", or a ready frame) if the socket
+        has room now; else drop it (counted)."""
         if self._sock is None:
             return False
-        data = json.dumps(frame, separators=(",", ":"), allow_nan=False).encode()
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
         try:
             self._sock.send(data)
         except OSError:  # no room (EAGAIN), too big, or the server has gone
@@ -126,6 +136,8 @@ class WebProcess:
     def actions(self) -> list[Action]:
         """The page's actions that have arrived (at most ``ACTIONS_PER_TICK``)."""
         out: list[Action] = []
+        if self._sock is None or not self._readable.poll(0):
+            return out
         while self._sock is not None and len(out) < ACTIONS_PER_TICK:
             try:
                 data = self._sock.recv(MESSAGE_MAX)
@@ -134,7 +146,17 @@ class WebProcess:
             if not data:
                 break
             with contextlib.suppress(ValueError, TypeError, KeyError):
-                out.append(Action(**json.loads(data)))
+                message = json.loads(data)
+                if "problem" in message:
+                    self._problems.append(str(message["problem"]))
+                else:
+                    out.append(Action(**message))
+        return out
+
+    def problems(self) -> list[str]:
+        """What the server said it could not make into a frame since the last call (read with
+        the actions)."""
+        out, self._problems = self._problems, []
         return out
 
     def stop(self) -> None:
@@ -167,6 +189,7 @@ class PageServer:
                  token: str | None) -> None:
         self.channel = channel
         self.host, self.port, self.token = host, port, token
+        self.frames = Frames()
         self.mission: dict[str, Any] = {}
         self.track: list[list[float]] = []
         self.last: dict[str, Any] = {}
@@ -205,7 +228,8 @@ class PageServer:
         await runner.cleanup()
 
     def _reply(self, message: dict[str, Any]) -> None:
-        self.channel.sendall(json.dumps(message).encode())
+        with contextlib.suppress(BlockingIOError):
+            self.channel.sendall(json.dumps(message).encode())
 
     async def _poll_channel(self) -> None:
         """Read the channel every ``POLL_S`` rather than wait on it: a frame the tick sends then
@@ -215,8 +239,9 @@ class PageServer:
             await asyncio.sleep(POLL_S)
 
     def _on_channel(self) -> None:
-        """Frames from the companion; the newest is broadcast (older ones in the same read are
-        only absorbed); the companion's end closing ends the server."""
+        """Facts (or ready frames) from the companion, each made into a frame and absorbed; the
+        newest is broadcast; the companion's end closing ends the server. A frame that cannot be
+        made or encoded is skipped and said to the companion, which announces it."""
         newest = None
         while True:
             try:
@@ -229,9 +254,15 @@ class PageServer:
                 assert self._closed is not None
                 self._closed.set()
                 return
-            frame = json.loads(data)
+            try:
+                message = pickle.loads(data)
+                frame = self.frames.frame(message) if message.get("type") == "facts" else message
+                text = json.dumps(frame, separators=(",", ":"), allow_nan=False)
+            except Exception as exc:  # noqa: BLE001 - a bad frame must not end the page
+                self._reply({"problem": f"{type(exc).__name__}: {exc}"})
+                continue
             self._absorb(frame)
-            newest = data.decode()
+            newest = text
         if newest is not None:
             self._broadcast(newest)
 

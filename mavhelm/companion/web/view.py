@@ -1,13 +1,14 @@
-"""The community app behind the web page: keeps the bus's latest values and the track, builds
-a frame ``FRAME_RATE_HZ`` times a second and hands it to the server process without waiting;
-takes the page's actions in the tick and gives them to the bridge as a ground station's
-commands.
+"""The community app behind the web page: gathers the facts of the tick (the bus values posted
+since the last frame, the typed status, the running tasks, the steering task's goal)
+``FRAME_RATE_HZ`` times a second and hands them to the server process without waiting, which
+makes the page's frame from them (``frames.py``) off the helm's tick; takes the page's actions in
+the tick and gives them to the bridge as a ground station's commands.
 """
 
 from __future__ import annotations
 
-import math
 import secrets
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -24,15 +25,21 @@ if TYPE_CHECKING:
     from mavhelm.companion.companion import Companion
 
 FRAME_RATE_HZ = 4.0
-TRACK_STEP_M = 0.5
-"""A new track point once the vehicle has moved this far."""
+BUSY_TICK = 2.0
+"""A tick that has already taken this many times the usual before the view's turn is busy: the
+frame waits for the next tick (at most ``MAX_DEFERRED`` in a row), so the picture's work lands
+in the tick's slack rather than on the helm's slowest ticks."""
+MAX_DEFERRED = 2
+USUAL_STEPS = (1.01, 0.97)
+"""The view's idea of a usual tick steps up by 1 % after a longer tick and down by 3 % after a
+shorter one: it settles on the ticks' lower quartile, which slow ticks do not drag up."""
 FAILURE_REPEAT_S = 10.0
 ACTION_VARIABLE = "WEB_CONTROL_WARNING"
 """Every action from the page, posted as an alert: logged, printed, sent as STATUSTEXT."""
 
 
 class WebView(App):
-    """Frames for ``server`` from ``companion`` (its helm is looked up each frame, so a
+    """Facts for ``server`` from ``companion`` (its helm is looked up each frame, so a
     RESTART_HELM shows the new mission)."""
 
     name = "iWeb"
@@ -43,11 +50,11 @@ class WebView(App):
         self.companion = companion
         self.server = server
         self.echo = echo
-        self.values: dict[str, float | str] = {}
-        self.alerts: list[str] = []
-        self._track_new: list[list[float]] = []
-        self._last_point: tuple[float, float] | None = None
+        self._mail: list[Message] = []
         self._next_frame: float | None = None
+        self._usual_s: float | None = None
+        self.deferred = 0
+        self._deferred_in_row = 0
         self.failures = 0
         self._failure_said: float | None = None
         self._helm: object | None = None
@@ -60,50 +67,56 @@ class WebView(App):
         return frozenset({"*"})
 
     def on_mail(self, mail: list[Message], now: float) -> None:
-        values = self.values
-        for msg in mail:
-            values[msg.name] = msg.value
-            if msg.name.endswith(("_ERROR", "_WARNING", "_REFUSED")) or msg.name == "NAV_WARNING":
-                self.alerts.insert(0, f"{msg.name}: {msg.value}")
-                del self.alerts[picture.ALERT_LINES:]
-        x, y = values.get("NAV_X"), values.get("NAV_Y")
-        if isinstance(x, float) and isinstance(y, float) and math.isfinite(x + y):
-            last = self._last_point
-            if last is None or math.hypot(x - last[0], y - last[1]) >= TRACK_STEP_M:
-                self._last_point = (x, y)
-                self._track_new.append([round(x, 2), round(y, 2)])
+        self._mail += mail
 
     def iterate(self, now: float) -> None:
         self._take_actions(now)
-        if self._next_frame is not None and now < self._next_frame:
+        for problem in self.server.problems():
+            self._failed(problem, now)
+        busy = self._busy_tick()
+        due = self._next_frame
+        if due is not None and now < due:
             return
-        self._next_frame = now + 1.0 / FRAME_RATE_HZ
+        if busy and self._deferred_in_row < MAX_DEFERRED:
+            self._deferred_in_row += 1
+            self.deferred += 1
+            return
+        self._deferred_in_row = 0
+        period = 1.0 / FRAME_RATE_HZ
+        self._next_frame = due + period if due is not None and now - due < period else now + period
         try:
-            self.server.offer(self.frame(now))
+            self.server.offer(self.facts(now))
         except Exception as exc:  # noqa: BLE001 - the picture must never stop the helm
-            self.failures += 1
-            if self._failure_said is None or now - self._failure_said >= FAILURE_REPEAT_S:
-                self._failure_said = now
-                self.notify("WEB_VIEW_WARNING", f"a frame could not be made "
-                            f"({type(exc).__name__}: {exc}); the helm carries on")
+            self._failed(f"{type(exc).__name__}: {exc}", now)
 
-    def frame(self, now: float) -> dict[str, Any]:
-        """What the page shows at ``now``; the mission's shapes only when the helm is new."""
+    def _busy_tick(self) -> bool:
+        """Whether this tick has been busy so far (against the usual, which it updates)."""
+        so_far = time.perf_counter() - self.companion.community.tick_started
+        usual = so_far if self._usual_s is None else self._usual_s
+        self._usual_s = usual * USUAL_STEPS[0 if so_far > usual else 1]
+        return so_far > BUSY_TICK * usual
+
+    def _failed(self, problem: str, now: float) -> None:
+        self.failures += 1
+        if self._failure_said is None or now - self._failure_said >= FAILURE_REPEAT_S:
+            self._failure_said = now
+            self.notify("WEB_VIEW_WARNING", f"a frame could not be made ({problem}); "
+                        "the helm carries on")
+
+    def facts(self, now: float) -> dict[str, Any]:
+        """What the tick knows for the page at ``now``: the values posted since the last
+        frame, and the mission's shapes only when the helm is new."""
         helm = self.companion.helm
         status = self._console.status if self._console is not None else CompanionStatus()
         owner = next((t for t in helm.tasks if t.name == status.owner and t.active), None)
-        track, self._track_new = self._track_new, []
+        mail, self._mail = self._mail, []
         bridge = self.companion.bridge
         heartbeat = bridge.last_heartbeat
-        frame: dict[str, Any] = {
-            "type": "frame", "t": round(now, 2), "status": picture.status_dict(status),
-            "poses": picture.poses(self.values), "track": track,
+        facts: dict[str, Any] = {
+            "type": "facts", "t": now, "status": status,
+            "values": {m.name: m.value for m in mail},
             "goal": picture.active_goal(owner) if owner is not None else None,
             "running": picture.running_tasks(helm.tasks, now),
-            "flags": {name: _shown(self.values[name]) for name in picture.flag_names(helm.tasks)
-                      if name in self.values},
-            "alerts": list(self.alerts),
-            "ranges": picture.ranges(self.values),
             "link": {"packets": bridge.packets, "bad_packets": bridge.bad_packets,
                      "heartbeat_age": None if heartbeat is None else round(now - heartbeat, 1),
                      "connect": bridge.config.connect},
@@ -111,11 +124,12 @@ class WebView(App):
         }
         if helm is not self._helm:
             self._helm = helm
-            frame["mission"] = {"shapes": picture.mission_shapes(helm.tasks),
+            facts["mission"] = {"shapes": picture.mission_shapes(helm.tasks),
                                 "beacons": self._beacons,
+                                "flags": picture.flag_names(helm.tasks),
                                 "remote_flags": list(bridge.config.remote_flags),
                                 "path": str(self.companion.mission.path)}
-        return frame
+        return facts
 
     def _take_actions(self, now: float) -> None:
         """The page's actions, each announced and then handed to the bridge as a COMMAND_LONG
@@ -128,10 +142,6 @@ class WebView(App):
             online_mode = config.online_modes[0] if config.online_modes else "GUIDED"
             msg = action.command(online_mode, (config.system_id, config.component_id))
             local_command(bridge, as_heard(msg, (config.system_id, WEB_COMPONENT)), now)
-
-
-def _shown(value: float | str) -> float | str:
-    return value if isinstance(value, str) or math.isfinite(value) else str(value)
 
 
 def start_web(companion: Companion, address: str, *, control: bool = False,
