@@ -100,7 +100,7 @@ class CovarianceTrack:
     def take(self, ekf: EKF) -> None:
         if self.t and ekf.t <= self.t[-1]:
             return
-        P = ekf.P
+        P = ekf.position_covariance()
         self.t.append(ekf.t)
         self.x.append(float(ekf.x[0, 0]))
         self.y.append(float(ekf.x[1, 0]))
