@@ -173,6 +173,7 @@ class Fusion:
                                 if beacons and config.lsq else None)
         if self.lsq is not None and config.fixed_tide is not None:
             self.lsq.tide = config.fixed_tide.value
+            self.lsq.tide_sigma = config.fixed_tide.sigma
         self.safety = FilterSafety(config.divergence_distance, config.lsq_timeout,
                                    config.max_median_shift)
         self.ekf: EKF | None = None
@@ -392,7 +393,7 @@ class Fusion:
         if self.lsq is None:
             return fixes
         for r in kept:
-            if isinstance(r.obs, Yaw | Depth):
+            if isinstance(r.obs, Yaw | Depth | Position):
                 self.lsq.add_pose(r.obs)
             elif isinstance(r.obs, Range):
                 fix = self.lsq.add(r.obs)
