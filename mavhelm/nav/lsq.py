@@ -354,12 +354,73 @@ def solve_joint(ranges: Sequence[Range], poses: Sequence[Yaw | Depth | Position]
     the offset a fourth beacon. X and Y need ranges to three beacons or an XY fix: else None,
     as when the solve does not converge or the net is degenerate. Starts as :func:`solve`."""
     names = sorted({r.beacon for r in ranges})
-    fixes = [p for p in poses if isinstance(p, Position)]
-    yaws = [p for p in poses if isinstance(p, Yaw)]
-    depths = [p for p in poses if isinstance(p, Depth)]
-    with_offset = estimate_offset and len(names) >= 4
+    fixes, yaws, depths = _by_kind(poses)
     if len(names) < (4 if estimate_offset else 3) and not fixes:
         return None
+    eqs = _equations(ranges, fixes, depths, yaws, beacons, tide, tide_sigma)
+    slot = _slots(bool(depths), bool(yaws), tide_sigma is not None,
+                  estimate_offset and len(names) >= 4)
+    start, lever_z = _pose_start(depths, yaws, tide)
+    limits = (max_iterations, tolerance)
+    if fixes or any(r.lever[0] or r.lever[1] for r in ranges):
+        best = _joint_best(eqs, slot, start, _joint_starts(guess, fixes, names, beacons),
+                           limits)
+        return _joint_fix(best, eqs, slot, ranges, fixes, names, lever_z)
+    # nothing ties the heading into the ranges: the normal equations are block-diagonal, and
+    # the position block is :func:`solve`'s problem (its faster path, the same solution)
+    fix = solve(ranges, beacons, guess=guess, estimate_offset=estimate_offset,
+                max_iterations=max_iterations, tolerance=tolerance)
+    if fix is None:
+        return None
+    pose_slot = {st: k for k, st in enumerate(st for st in slot if st in (_Z, _H, _T))}
+    p = [fix.x, fix.y, *start[2:5], fix.offset]
+    if pose_slot:
+        _, p = _joint_descend(p, eqs[len(ranges):], pose_slot, *limits)
+    return dataclasses.replace(fix, **_pose_fields(p, slot, lever_z))
+
+
+def _by_kind(poses: Sequence[Yaw | Depth | Position]
+             ) -> tuple[list[Position], list[Yaw], list[Depth]]:
+    return ([p for p in poses if isinstance(p, Position)],
+            [p for p in poses if isinstance(p, Yaw)], [p for p in poses if isinstance(p, Depth)])
+
+
+def _slots(depth: bool, heading: bool, tide: bool, offset: bool) -> dict[int, int]:
+    """The solved states (X and Y always, the others when observed) → their column."""
+    seen = ((_Z, depth), (_H, heading), (_T, tide), (_O, offset))
+    return {state: k for k, state in enumerate([_X, _Y] + [st for st, yes in seen if yes])}
+
+
+def _joint_best(eqs: list[_Eq], slot: dict[int, int], start: list[float],
+                starts: list[tuple[float, float]], limits: tuple[int, float]) -> list[float]:
+    """The lowest-cost solution from the X, Y ``starts`` (stopping at one within 3 σ an
+    equation, or at the same minimum reached from two starts)."""
+    best: tuple[float, list[float]] | None = None
+    for sx, sy in starts:
+        cost, p = _joint_descend([sx, sy, *start[2:]], eqs, slot, *limits)
+        same = best is not None and math.hypot(p[0] - best[1][0], p[1] - best[1][1]) < 0.1
+        if best is None or cost < best[0]:
+            best = (cost, p)
+        if best[0] <= 9.0 * len(eqs) or same:
+            break
+    assert best is not None
+    return best[1]
+
+
+def _pose_start(depths: list[Depth], yaws: list[Yaw], tide: float) -> tuple[list[float], float]:
+    """The states' start (X, Y at 0: the caller's) from the readings, and the depth sensors'
+    mean height: Z from the mean depth at the held tide, the heading the readings' mean."""
+    lever_z = sum(d.lever[2] for d in depths) / len(depths) if depths else 0.0
+    z0 = tide - sum(d.z for d in depths) / len(depths) - lever_z if depths else 0.0
+    h0 = (math.atan2(sum(math.sin(y.z) for y in yaws), sum(math.cos(y.z) for y in yaws))
+          if yaws else 0.0)
+    return [0.0, 0.0, z0, h0, tide, 0.0], lever_z
+
+
+def _equations(ranges: Sequence[Range], fixes: list[Position], depths: list[Depth],
+               yaws: list[Yaw], beacons: dict[str, Beacon], tide: float,
+               tide_sigma: float | None) -> list[_Eq]:
+    """The window's equations: ranges first (the fast path counts on it), then the rest."""
     eqs: list[_Eq] = [(_RANGE, r.z - beacons[r.beacon].offset, 1.0 / max(r.sigma, 1e-6),
                        beacons[r.beacon].x, beacons[r.beacon].y, beacons[r.beacon].z ** 2,
                        r.lever[0], r.lever[1]) for r in ranges]
@@ -372,46 +433,19 @@ def solve_joint(ranges: Sequence[Range], poses: Sequence[Yaw | Depth | Position]
     eqs += [(_YAW, y.z, 1.0 / max(y.sigma, 1e-6), 0.0, 0.0, 0.0, 0.0, 0.0) for y in yaws]
     if tide_sigma is not None:
         eqs.append((_TIDE, tide, 1.0 / max(tide_sigma, 1e-6), 0.0, 0.0, 0.0, 0.0, 0.0))
-    solved = [_X, _Y] + [state for state, seen in ((_Z, depths), (_H, yaws),
-                                                   (_T, tide_sigma is not None),
-                                                   (_O, with_offset)) if seen]
-    slot = {state: k for k, state in enumerate(solved)}
-    lever_z = sum(d.lever[2] for d in depths) / len(depths) if depths else 0.0
-    z0 = tide - sum(d.z for d in depths) / len(depths) - lever_z if depths else 0.0
-    h0 = (math.atan2(sum(math.sin(y.z) for y in yaws), sum(math.cos(y.z) for y in yaws))
-          if yaws else 0.0)
-    if not fixes and not any(r.lever[0] or r.lever[1] for r in ranges):
-        # nothing ties the heading into the ranges: the normal equations are block-diagonal,
-        # and the position block is :func:`solve`'s problem (its faster path, same solution)
-        fix = solve(ranges, beacons, guess=guess, estimate_offset=estimate_offset,
-                    max_iterations=max_iterations, tolerance=tolerance)
-        if fix is None:
-            return None
-        pose_slot = {state: k for k, state in enumerate(solved[2:]) if state != _O}
-        p = [fix.x, fix.y, z0, h0, tide, fix.offset]
-        if pose_slot:
-            _, p = _joint_descend(p, eqs[len(ranges):], pose_slot, max_iterations, tolerance)
-        return dataclasses.replace(fix, **_pose_fields(p, slot, lever_z))
+    return eqs
+
+
+def _joint_starts(guess: tuple[float, float] | None, fixes: list[Position], names: list[str],
+                  beacons: dict[str, Beacon]) -> list[tuple[float, float]]:
+    """The guess; else the fixes' mean; else :func:`_starts` around the beacons heard."""
     if guess is not None:
-        starts = [guess]
-    elif fixes:
-        starts = [(sum(f.x for f in fixes) / len(fixes), sum(f.y for f in fixes) / len(fixes))]
-    else:
-        rows = [(beacons[n].x, beacons[n].y, 0.0, 0.0, 0.0) for n in names]
-        starts = _starts(rows, (sum(b[0] for b in rows) / len(rows),
-                                sum(b[1] for b in rows) / len(rows)))
-    good_enough = 9.0 * len(eqs)
-    best: tuple[float, list[float]] | None = None
-    for sx, sy in starts:
-        cost, p = _joint_descend([sx, sy, z0, h0, tide, 0.0], eqs, slot, max_iterations,
-                                 tolerance)
-        same = best is not None and math.hypot(p[0] - best[1][0], p[1] - best[1][1]) < 0.1
-        if best is None or cost < best[0]:
-            best = (cost, p)
-        if best[0] <= good_enough or same:
-            break
-    assert best is not None
-    return _joint_fix(best[1], eqs, slot, ranges, fixes, names, lever_z)
+        return [guess]
+    if fixes:
+        return [(sum(f.x for f in fixes) / len(fixes), sum(f.y for f in fixes) / len(fixes))]
+    rows = [(beacons[n].x, beacons[n].y, 0.0, 0.0, 0.0) for n in names]
+    return _starts(rows, (sum(b[0] for b in rows) / len(rows),
+                          sum(b[1] for b in rows) / len(rows)))
 
 
 def _joint_fix(p: list[float], eqs: list[_Eq], slot: dict[int, int], ranges: Sequence[Range],
