@@ -98,7 +98,7 @@ def main() -> None:
               f"max {max(diffs):.1e} m, {sum(d > 0.01 for d in diffs)} of {len(diffs)} "
               "fixes > 1 cm apart")
 
-    poses = [Yaw(0.1 * k, 0.3 + 0.001 * k, 0.02) for k in range(10)]
+    poses: list[Yaw | Depth] = [Yaw(0.1 * k, 0.3 + 0.001 * k, 0.02) for k in range(10)]
     poses += [Depth(0.2 * k, 3.0 + 0.01 * k, 0.05) for k in range(5)]
     for offset in (False, True):
         timings = []
