@@ -59,6 +59,7 @@ from mavhelm.nav.filter_safety import (
     FilterSafety,
 )
 from mavhelm.nav.heading_watch import (
+    BIAS_WANDER_TIME,
     DOUBT_SIGMA,
     HEADING_DOUBT_SCALE,
     HEADING_MAX_SCALE,
@@ -449,7 +450,7 @@ class Fusion:
                 return  # an outlier is the gate's business: a wrong heading shows first
             decision = watch.position(t, nis)
             if watch.doubted_at == t:
-                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
+                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
                 if ekf.i_bias is None:
                     # no bias state to take the error: the heading itself is down-weighted
                     scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE,
