@@ -9,9 +9,9 @@ shows in the data:
   ranges or fixes beyond ``DOUBT_NIS``): a wrong heading dead-reckons the vehicle away from
   where the ranges put it. The heading is then doubted: its uncertainty (the bias state's,
   when estimated) is raised to ``DOUBT_SIGMA``, so the position and body-velocity data
-  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``WANDER_TIME``;
+  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``BIAS_WANDER_TIME``;
   without a bias state the heading readings' σ is scaled up instead (``HEADING_DOUBT_SCALE``
-  a doubt) for that time.
+  a doubt) for ``WANDER_TIME``.
 - **The heading contradicts the motion** (its readings rejected for ``CONTRADICTION_TIME``):
   it is down-weighted to nothing (rejected) and reported, and reported again when it agrees.
 - **Unobservable**: the bias is seen only through motion (body velocity against position);
