@@ -3,7 +3,9 @@
 
 Both are given the same ranges and the same starts (the beacons' centroid, then six points
 around the net until a fit within 3 σ a range is found), both with and without the common
-range offset. Prints µs per fix for each and the largest position difference between them.
+range offset. Prints µs per fix for each and the largest position difference between them,
+then the LSQ's joint solve (``solve_joint``, what the navigator runs) on the same ranges, alone
+and with a window's headings and depths (10 and 5 readings) beside them.
 Asserts nothing (a shared machine's speed is not a test result).
 Run: ``.venv/bin/python benchmarks/bench_lsq.py``.
 """
@@ -16,8 +18,8 @@ import time
 import numpy as np
 from scipy.optimize import least_squares
 
-from mavhelm.nav.ekf import Beacon, Range
-from mavhelm.nav.lsq import solve
+from mavhelm.nav.ekf import Beacon, Depth, Range, Yaw
+from mavhelm.nav.lsq import solve, solve_joint
 
 PROBLEMS = 400
 
@@ -95,6 +97,22 @@ def main() -> None:
               f"({t_scipy / t_ours:.1f}x); position difference median {np.median(diffs):.1e} m, "
               f"max {max(diffs):.1e} m, {sum(d > 0.01 for d in diffs)} of {len(diffs)} "
               "fixes > 1 cm apart")
+
+    poses: list[Yaw | Depth] = [Yaw(0.1 * k, 0.3 + 0.001 * k, 0.02) for k in range(10)]
+    poses += [Depth(0.2 * k, 3.0 + 0.01 * k, 0.05) for k in range(5)]
+    for offset in (False, True):
+        timings = []
+        for window in ([], poses):
+            t0 = time.perf_counter()
+            joint = [solve_joint(r, window, b, estimate_offset=offset) for r, b in cases]
+            timings.append((time.perf_counter() - t0) / len(cases))
+        alone = [solve(r, b, estimate_offset=offset) for r, b in cases]
+        apart = max(math.hypot(a.x - j.x, a.y - j.y) for a, j in zip(alone, joint, strict=True)
+                    if a is not None and j is not None)
+        label = "with offset" if offset else "x, y only  "
+        print(f"joint LSQ {label}: ranges alone {timings[0] * 1e6:7.1f} us/fix, with 10 "
+              f"headings and 5 depths {timings[1] * 1e6:7.1f} us/fix; position against "
+              f"solve's at most {apart:.1e} m apart")
 
 
 if __name__ == "__main__":

@@ -104,6 +104,7 @@ from mavhelm.nav.settings import (
     EKF_SIGMA_XY,
     EKF_SIGMA_Z,
     EKF_TIDE,
+    EKF_TIME_SIGMA,
     EKF_XY_DYNAMICS,
     EKF_YAW_BIAS,
     EKF_YAW_DYNAMICS,
@@ -225,6 +226,11 @@ class EKFConfig:
       the filter is lost (:class:`PositionLost`).
     - ``mobile`` (EKF_MOBILE): False for a static vehicle (spec 2.2.2): no rate states, the
       pose a random walk of the dynamics' strength.
+    - ``time_sigma`` (s, EKF_TIME_SIGMA): 1-σ of the data's lateness. Readings are stamped
+      when they arrive, a link's latency after they were true: the state the filter holds is
+      the vehicle's a little while ago, and the published position covariance
+      (:meth:`EKF.position_covariance`) adds that uncertainty along the velocity. It stays out
+      of the filter: a bias shared by every reading is no noise to average.
     - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
       (a hull that moves along its bow, as ``FIXEDSIDESLIP`` declares): the spec's uncoupled
       model otherwise keeps the old course through a turn, and the sideslip constraint then
@@ -262,6 +268,7 @@ class EKFConfig:
     sigma_tide: float = 1.0
     tide_noise: float = 1e-3
     velocity_follows_heading: bool = False
+    time_sigma: float = setting(EKF_TIME_SIGMA)
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -979,6 +986,13 @@ class EKF:
         half_sum, half_diff = (P[0, 0] + P[1, 1]) / 2, (P[0, 0] - P[1, 1]) / 2
         return math.sqrt(max(half_sum + math.hypot(half_diff, P[0, 1]), 0.0))
 
+    def position_covariance(self) -> np.ndarray:
+        """The published 2×2 position covariance: P's, plus the data's lateness
+        (``time_sigma``) times the velocity, along the track."""
+        x, P = self.kf.x, self.kf.P
+        v = x[I_VX:I_VY + 1, 0] if self.config.mobile else np.zeros(2)
+        return P[I_X:I_Y + 1, I_X:I_Y + 1] + self.config.time_sigma**2 * np.outer(v, v)
+
     def estimate(self) -> Estimate:
         return self._estimate(self.t, self.kf.x[:, 0])
 
@@ -996,10 +1010,12 @@ class EKF:
 
     def _estimate(self, t: float, x: np.ndarray) -> Estimate:
         P = self.kf.P
+        late = self.config.time_sigma**2 if self.config.mobile else 0.0
         return Estimate(
             t=t, x=float(x[I_X]), y=float(x[I_Y]), yaw=float(x[I_H]),
             x_vel=float(x[I_VX]), y_vel=float(x[I_VY]), yaw_vel=float(x[I_VH]),
-            sigma_x=_root(P[I_X, I_X]), sigma_y=_root(P[I_Y, I_Y]),
+            sigma_x=_root(P[I_X, I_X] + late * x[I_VX] ** 2),
+            sigma_y=_root(P[I_Y, I_Y] + late * x[I_VY] ** 2),
             sigma_yaw=_root(P[I_H, I_H]),
             yaw_bias=float(x[self.i_bias]) if self.i_bias is not None else 0.0,
             range_scale=float(x[self.i_scale]) if self.i_scale is not None else 0.0,

@@ -50,10 +50,13 @@ FAILED: Final = "failed"
 RESTARTED: Final = "restarted"
 HEADING: Final = "heading"
 LSQ_TRUST: Final = "lsq"
-DECISION_KINDS: Final = (BOOTED, REINITIALISED, LOST, FAILED, RESTARTED, HEADING, LSQ_TRUST)
+BEACON: Final = "beacon"
+DECISION_KINDS: Final = (BOOTED, REINITIALISED, LOST, FAILED, RESTARTED, HEADING, LSQ_TRUST,
+                         BEACON)
 """What the navigator decides: the EKF booted, re-initialised to the LSQ, lost (off-line,
 waiting for the LSQ), the navigation failed, the EKF restarted after a numerical fault, what
-it concluded about a heading sensor, and whether the LSQ is trusted to watch the EKF."""
+it concluded about a heading sensor, whether the LSQ is trusted to watch the EKF, and which
+beacons are off their survey."""
 
 
 @dataclass(frozen=True)

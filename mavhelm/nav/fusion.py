@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mavhelm.nav.beacon_watch import BeaconWatch
 from mavhelm.nav.ekf import (
     EKF,
     Beacon,
@@ -58,6 +59,7 @@ from mavhelm.nav.filter_safety import (
     FilterSafety,
 )
 from mavhelm.nav.heading_watch import (
+    BIAS_WANDER_TIME,
     DOUBT_SIGMA,
     HEADING_DOUBT_SCALE,
     HEADING_MAX_SCALE,
@@ -172,6 +174,7 @@ class Fusion:
                                 if beacons and config.lsq else None)
         if self.lsq is not None and config.fixed_tide is not None:
             self.lsq.tide = config.fixed_tide.value
+            self.lsq.tide_sigma = config.fixed_tide.sigma
         self.safety = FilterSafety(config.divergence_distance, config.lsq_timeout,
                                    config.max_median_shift)
         self.ekf: EKF | None = None
@@ -184,6 +187,7 @@ class Fusion:
         self.new_decisions: list[Decision] = []
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
         self.noise = NoiseMatch()
+        self.beacon_watch = BeaconWatch()
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""
@@ -390,7 +394,7 @@ class Fusion:
         if self.lsq is None:
             return fixes
         for r in kept:
-            if isinstance(r.obs, Yaw | Depth):
+            if isinstance(r.obs, Yaw | Depth | Position):
                 self.lsq.add_pose(r.obs)
             elif isinstance(r.obs, Range):
                 fix = self.lsq.add(r.obs)
@@ -415,9 +419,13 @@ class Fusion:
         decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
         if decision is not None:
             self._decide(decision)
+        if any(isinstance(r.obs, Range) for r in kept):
+            for decision in self.beacon_watch.review(t, ekf):
+                self._decide(decision)
 
     def _weighted(self, obs: Observation, sensor: str) -> Observation:
-        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`); a
+        """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`), a
+        range to a beacon off its survey down-weighted (:mod:`mavhelm.nav.beacon_watch`); a
         heading with the doubt's scale, while it lasts."""
         if isinstance(obs, Yaw):
             scale, until = self._heading_scale
@@ -427,8 +435,10 @@ class Fusion:
             return dataclasses.replace(obs, sigma=obs.sigma * scale)
         if not isinstance(obs, Range | Position):
             return obs
-        scale = self.noise.scale(_channel(obs, sensor))
-        return obs if scale == 1.0 else dataclasses.replace(obs, sigma=obs.sigma * scale)
+        sigma = obs.sigma * self.noise.scale(_channel(obs, sensor))
+        if isinstance(obs, Range) and self.beacon_watch.weights:
+            sigma = self.beacon_watch.sigma(obs.beacon, sigma)
+        return obs if sigma == obs.sigma else dataclasses.replace(obs, sigma=sigma)
 
     def _check_heading(self, t: float, r: Reading, accepted: bool, nis: float) -> None:
         """The heading watch on one reading's fate (see :mod:`mavhelm.nav.heading_watch`)."""
@@ -440,7 +450,7 @@ class Fusion:
                 return  # an outlier is the gate's business: a wrong heading shows first
             decision = watch.position(t, nis)
             if watch.doubted_at == t:
-                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + WANDER_TIME)
+                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
                 if ekf.i_bias is None:
                     # no bias state to take the error: the heading itself is down-weighted
                     scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE,

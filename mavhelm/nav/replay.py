@@ -36,6 +36,9 @@ TRUTH_X = "TRUTH_X"
 TRUTH_Y = "TRUTH_Y"
 SCORED = ("NAV", "EKF", "LSQ", "GPS")
 """Position sources the report scores when the log has them (NAV_* is what the helm used)."""
+BEST_SOURCE_FLOOR: Final = 1.2
+"""NAV's RMS over the best of its own sources' that the report holds it to: the navigator
+should never do worse than a source it already had by more than 20 %."""
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,7 @@ class CovarianceTrack:
     def take(self, ekf: EKF) -> None:
         if self.t and ekf.t <= self.t[-1]:
             return
-        P = ekf.P
+        P = ekf.position_covariance()
         self.t.append(ekf.t)
         self.x.append(float(ekf.x[0, 0]))
         self.y.append(float(ekf.x[1, 0]))
@@ -134,6 +137,19 @@ class ReplayResult:
         track = self.tracks.get(source, Track())
         return accuracy(track.t, track.x, track.y, self.truth.t, self.truth.x, self.truth.y)
 
+    def _against_sources(self) -> list[str]:
+        """NAV's RMS against the best of its own sources' (issue floor: at most 1.2×)."""
+        scores = {s: self.accuracy(s).rms for s in SCORED
+                  if self.tracks.get(s) and self.tracks[s].t}
+        nav = scores.pop("NAV", math.nan)
+        scores = {s: v for s, v in scores.items() if math.isfinite(v)}
+        if not scores or not math.isfinite(nav):
+            return []
+        best = min(scores, key=scores.__getitem__)
+        ratio = nav / scores[best] if scores[best] > 0 else math.inf
+        return [f"NAV against its best source ({best}, RMS {scores[best]:.2f} m): "
+                f"{ratio:.2f}x (floor {BEST_SOURCE_FLOOR:g}x)"]
+
     def report(self) -> list[str]:
         """One line per scored source, plus the filter's own account."""
         lines = [f"replayed {self.span:.0f} s of log in {self.ticks} ticks"]
@@ -141,6 +157,7 @@ class ReplayResult:
             for source in SCORED:
                 if self.tracks.get(source) and self.tracks[source].t:
                     lines.append(f"{source:<4} position: {self.accuracy(source)}")
+            lines += self._against_sources()
         else:
             lines.append("no truth in the log (TRUTH_X, TRUTH_Y): nothing to score")
         fusion = self.navigator.fusion

@@ -1,0 +1,72 @@
+"""The beacon watch (mavhelm.nav.beacon_watch): a beacon whose learned range offset departs
+from the other beacons' is reported and down-weighted; one back in line is trusted again."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from mavhelm.nav.beacon_watch import BIAS_LIMIT, SWING, BeaconWatch
+from mavhelm.nav.ekf import EKF, Beacon, EKFConfig
+from mavhelm.nav.filter_safety import BEACON
+
+BEACONS = (Beacon("A", 0, 0), Beacon("B", 50, 0), Beacon("C", 0, 50, offset=2.0),
+           Beacon("D", 50, 50))
+
+
+def _ekf(offsets: dict[str, float], sigma: float = 0.1, **config: bool) -> EKF:
+    ekf = EKF(0.0, 25.0, 25.0, beacons=BEACONS, config=EKFConfig(**config))
+    for name, value in offsets.items():
+        i = ekf.offset_index(name)
+        ekf.x[i, 0] = value
+        ekf.P[i, i] = sigma**2
+    return ekf
+
+
+def test_a_beacon_off_the_others_is_reported_and_down_weighted() -> None:
+    # a common 0.3 m delay, beacon C's prior of 2 m taken off: only A stands out
+    ekf = _ekf({"A": 3.3, "B": 0.3, "C": 2.3, "D": 0.2})
+    watch = BeaconWatch()
+    decisions = watch.review(10.0, ekf)
+    assert [(d.kind, d.t) for d in decisions] == [(BEACON, 10.0)]
+    assert "beacon A's ranges are biased 3.0 m" in decisions[0].why
+    assert watch.sigma("A", 1.0) == pytest.approx(math.hypot(1.0, SWING * 3.0))
+    assert watch.sigma("B", 1.0) == 1.0
+    assert watch.review(11.0, ekf) == []  # said once
+
+
+def test_three_beacons_one_off_is_told_apart() -> None:
+    ekf = EKF(0.0, 0.0, 0.0, beacons=BEACONS[:3], config=EKFConfig())
+    for name, value in {"A": 4.0, "B": 0.0, "C": 2.0}.items():
+        i = ekf.offset_index(name)
+        ekf.x[i, 0], ekf.P[i, i] = value, 0.01
+    watch = BeaconWatch()
+    assert [d.why.split("'")[0] for d in watch.review(0.0, ekf)] == ["beacon A"]
+    assert set(watch.weights) == {"A"}
+
+
+def test_an_uncertain_offset_proves_nothing() -> None:
+    ekf = _ekf({"A": 3.0, "B": 0.0, "C": 2.0, "D": 0.0}, sigma=2.0)  # 3 m at σ 2 m
+    watch = BeaconWatch()
+    assert watch.review(0.0, ekf) == [] and watch.weights == {}
+
+
+def test_a_beacon_back_in_line_is_trusted_again() -> None:
+    ekf = _ekf({"A": 3.0, "B": 0.0, "C": 2.0, "D": 0.0})
+    watch = BeaconWatch()
+    watch.review(0.0, ekf)
+    ekf.x[ekf.offset_index("A"), 0] = 0.5 * BIAS_LIMIT  # between half the limit and the limit
+    assert watch.review(1.0, ekf) == [] and "A" in watch.weights
+    ekf.x[ekf.offset_index("A"), 0] = 0.2 * BIAS_LIMIT
+    decisions = watch.review(2.0, ekf)
+    assert len(decisions) == 1 and "trusted as declared" in decisions[0].why
+    assert watch.sigma("A", 1.0) == 1.0
+
+
+@pytest.mark.parametrize(("beacons", "config"), [(BEACONS[:2], {}),
+                                                 (BEACONS, {"learn_beacon_offsets": False})])
+def test_nothing_to_tell_without_three_beacons_or_learned_offsets(beacons, config) -> None:
+    ekf = EKF(0.0, 0.0, 0.0, beacons=beacons, config=EKFConfig(**config))
+    ekf.x[ekf.offset_index("A"), 0] = 10.0
+    assert BeaconWatch().review(0.0, ekf) == []
