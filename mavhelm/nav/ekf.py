@@ -915,7 +915,7 @@ class EKF:
             raise ValueError("a BodyVelocity observation with no part")
         return rows
 
-    def _sensor_position(self, x: np.ndarray, lever: Lever
+    def _sensor_position(self, x: list[float], lever: Lever
                          ) -> tuple[tuple[float, float, float], tuple[float, float]]:
         """Where a sensor at ``lever`` (body x starboard, y forward, z up) is in the local
         frame, and the derivative of its X, Y with respect to yaw."""
