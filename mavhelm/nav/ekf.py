@@ -972,16 +972,16 @@ class EKF:
             kf.P = 0.5 * (kf.P + kf.P.T)
         x, cfg = kf.x, self.config
         if self._healthy():
-            vehicle = x[:N_VEHICLE, 0].tolist()
-            self._good = (vehicle[I_X], vehicle[I_Y], vehicle[I_H])
+            state = x[:, 0].tolist()
+            self._good = (state[I_X], state[I_Y], state[I_H])
         else:
             self._recover()
             x = kf.x
-            vehicle = x[:N_VEHICLE, 0].tolist()
-        _px, _py, yaw, vx, vy, yaw_rate = vehicle
+            state = x[:, 0].tolist()
+        yaw, vx, vy, yaw_rate = state[I_H], state[I_VX], state[I_VY], state[I_VH]
         x[I_H, 0] = wrap_angle(yaw)
         if self.i_bias is not None:
-            x[self.i_bias, 0] = wrap_angle(float(x[self.i_bias, 0]))
+            x[self.i_bias, 0] = wrap_angle(state[self.i_bias])
         if not cfg.mobile:
             self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
             vx = vy = yaw_rate = 0.0
@@ -1043,9 +1043,9 @@ class EKF:
 
     def position_sigma(self) -> float:
         """The larger 1-σ of the position (square root of P's top eigenvalue for X, Y)."""
-        P = self.kf.P
-        half_sum, half_diff = (P[0, 0] + P[1, 1]) / 2, (P[0, 0] - P[1, 1]) / 2
-        return math.sqrt(max(half_sum + math.hypot(half_diff, P[0, 1]), 0.0))
+        (pxx, pxy), (_pyx, pyy) = self.kf.P[:2, :2].tolist()
+        half_sum, half_diff = (pxx + pyy) / 2, (pxx - pyy) / 2
+        return math.sqrt(max(half_sum + math.hypot(half_diff, pxy), 0.0))
 
     def estimate(self) -> Estimate:
         return self._estimate(self.t, self.kf.x[:, 0].tolist())
