@@ -97,13 +97,14 @@ class CovarianceTrack:
     def take(self, ekf: EKF) -> None:
         if self.t and ekf.t <= self.t[-1]:
             return
-        P = ekf.P
+        (pxx, pxy), (_pyx, pyy) = ekf.P[:2, :2].tolist()
+        x, y = ekf.x[:2, 0].tolist()
         self.t.append(ekf.t)
-        self.x.append(float(ekf.x[0, 0]))
-        self.y.append(float(ekf.x[1, 0]))
-        self.pxx.append(float(P[0, 0]))
-        self.pxy.append(float(P[0, 1]))
-        self.pyy.append(float(P[1, 1]))
+        self.x.append(x)
+        self.y.append(y)
+        self.pxx.append(pxx)
+        self.pxy.append(pxy)
+        self.pyy.append(pyy)
 
 
 @dataclass
