@@ -223,15 +223,22 @@ class _Recorder:
     tracks: dict[str, Track] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     pending: dict[tuple[str, float], float] = field(default_factory=dict)
+    names: dict[str, tuple[str, str, str]] = field(default_factory=dict)
+    """Per variable: its source, its axis and its partner's name (``EKF_X``: EKF, X,
+    EKF_Y), split once."""
 
     def take(self, mail: list[Message]) -> None:
         for m in mail:
             if m.name == "NAV_WARNING":
                 self.warnings.append(m.string)
                 continue
-            source, _, axis = m.name.rpartition("_")
-            other = "Y" if axis == "X" else "X"
-            partner = self.pending.pop((f"{source}_{other}", m.time), None)
+            split = self.names.get(m.name)
+            if split is None:
+                source, _, axis = m.name.rpartition("_")
+                split = self.names[m.name] = (source, axis,
+                                              f"{source}_{'Y' if axis == 'X' else 'X'}")
+            source, axis, other = split
+            partner = self.pending.pop((other, m.time), None)
             if partner is None:
                 self.pending[(m.name, m.time)] = m.double
                 continue
