@@ -34,10 +34,10 @@ def percentiles_us(samples: list[float]) -> str:
     return f"median {np.median(a):7.1f} us   p99 {np.percentile(a, 99):7.1f} us   (n={a.size})"
 
 
-def ekf_updates() -> float:
+def ekf_updates() -> tuple[float, float]:
     """One EKF with four beacons and every hidden state, fed Plaza-like slices. The slices
     are built before the clock starts: the figure is the filter's predict+update, not the
-    making of observations and random numbers. Returns the wall time of one cycle (s)."""
+    making of observations and random numbers. Returns one cycle's wall and CPU time (s)."""
     beacons = [Beacon(str(k), 30 * math.cos(k), 30 * math.sin(k)) for k in range(4)]
     ekf = EKF(0.0, 0.0, 0.0, beacons=beacons, config=EKFConfig(estimate_yaw_bias=True))
     rng = np.random.default_rng(0)
@@ -58,7 +58,7 @@ def ekf_updates() -> float:
     wall = (time.perf_counter() - wall) / n
     print(f"EKF (dim {ekf.dim}): {1 / wall:,.0f} predict+update cycles/s "
           f"({1e6 * wall:.0f} us each wall, {1e6 * cpu:.0f} us CPU)")
-    return wall
+    return wall, cpu
 
 
 EXTRA_TASKS = 17
@@ -90,10 +90,10 @@ def _extra_tasks() -> str:
     return "".join(boxes + headings)
 
 
-def tick_with_ekf() -> float:
+def tick_with_ekf() -> tuple[float, float]:
     """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
     20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick (wall
-    and the thread's CPU time). Returns the whole tick's p99 wall time (s)."""
+    and the thread's CPU time). Returns the whole tick's p99, wall and CPU (s)."""
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
@@ -126,7 +126,7 @@ def tick_with_ekf() -> float:
             whole = run.run.companion_tick_seconds
             print(f"  whole companion tick {percentiles_us(whole)}")
             print(f"  whole tick, CPU      {percentiles_us(cpu)}")
-            return float(np.percentile(whole, 99))
+            return float(np.percentile(whole, 99)), float(np.percentile(cpu, 99))
         finally:
             run.close()
 
@@ -141,9 +141,9 @@ def _plaza(folder: Path) -> tuple[Block, list[Message]]:
     return block, read_alog(alog)
 
 
-def plaza_replay() -> float | None:
-    """Plaza1 through the navigator, best of three (wall and CPU each); returns the wall time
-    a one-hour log of that density would take (s), None without the data."""
+def plaza_replay() -> tuple[float, float] | None:
+    """Plaza1 through the navigator, best of three (wall and CPU each); returns the wall and
+    CPU time a one-hour log of that density would take (s), None without the data."""
     if not PLAZA.exists():
         print(f"Plaza replay: skipped, {PLAZA} is absent")
         return None
@@ -163,7 +163,7 @@ def plaza_replay() -> float | None:
         print(f"  best {wall:.2f} s wall ({cpu:.2f} s CPU): {result.span / wall:.0f}x real time; "
               f"a one-hour log of this density: {hour * wall:.1f} s wall ({hour * cpu:.1f} s CPU)")
         print(f"  accuracy: {result.accuracy('NAV')}")
-        return hour * wall
+        return hour * wall, hour * cpu
 
 
 def plaza_faults() -> None:
@@ -186,11 +186,15 @@ def plaza_faults() -> None:
                   + (f"; FAILURE {result.failure}" if result.failure else ""))
 
 
-def _target(what: str, value: float | None, limit: float, unit: str, scale: float) -> str:
-    if value is None:
+def _target(what: str, figures: tuple[float, float] | None, limit: float, unit: str,
+            scale: float) -> str:
+    """One target's line: wall time (what the issue asks) and CPU time (the code's own cost
+    when other work shares the machine), each met or not."""
+    if figures is None:
         return f"  {what} <= {limit:g} {unit}: not measured"
-    verdict = "met" if value * scale <= limit else "NOT MET"
-    return f"  {what} <= {limit:g} {unit}: {value * scale:.1f} {unit}, {verdict}"
+    said = [f"{value * scale:.1f} {unit} {kind} ({'met' if value * scale <= limit else 'NOT MET'})"
+            for kind, value in zip(("wall", "CPU"), figures, strict=True)]
+    return f"  {what} <= {limit:g} {unit}: " + ", ".join(said)
 
 
 def main() -> None:
