@@ -838,7 +838,8 @@ class EKF:
             first.append(len(y))
         H = np.zeros((len(y), n))
         H.reshape(-1)[cells] = values
-        return _Slice(np.array(y), H, np.array(r), first)
+        y_and_r = np.array((y, r))  # one conversion for both
+        return _Slice(y_and_r[0], H, y_and_r[1], first)
 
     def _linearise(self, obs: Observation) -> _Rows:
         """One observation linearised at the current state: measurement, prediction, Jacobian,
