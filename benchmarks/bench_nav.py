@@ -22,10 +22,10 @@ the bit (Plaza1 tracks and covariances compared).
 - Companion tick, CPU per tick at load ≈ 2.3 (median / p99, µs): whole tick 885–930 / 1540
   before, 709–726 / 1394–1417 after; pNav 406–419 / 560 before, 263–272 / 410 after; pHelm
   156 / 230 before, 143 / 230 after; console 33 / 190 before, 7 / 195 after. Target NOT
-  met: once a second the autopilot's 1 Hz streams arrive together (about 23 messages, most
-  of which the companion does not use: RAW_IMU, SCALED_IMU2, POWER_STATUS, MEMINFO …) and
-  pymavlink's decoding of them (about 7 µs each) puts that tick's iMAVLink at ~390 µs
-  (p90) to ~630 µs (p99) against a median of ~115 µs; with the serial instruments
+  met: once a second the autopilot's 1 Hz streams arrive together (23 messages, 14 of which
+  the companion does not use: RAW_IMU, SCALED_IMU2, POWER_STATUS, MEMINFO, AHRS …); decoding
+  them all (pymavlink, ~7 µs each) and handling the others puts that tick's iMAVLink at
+  ~390 µs (p90) to ~630 µs (p99) against a median of ~115 µs. With the serial instruments
   (pynmea2, ~110 µs), pHelm's 20 tasks (~145 µs) and pNav (~270 µs) a p99 of 1 ms is not
   within reach by trimming the hot paths alone.
 """
