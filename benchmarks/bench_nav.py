@@ -15,10 +15,10 @@ the bit (Plaza1 tracks and covariances compared).
 - EKF predict+update, observations built before the clock: load ≈ 1.2: 110–128 µs before,
   50–60 µs after; load 2.5–4: 122–187 µs before, 53–81 µs after (× 0.45). With the
   observations built inside the timed loop (the former measure) it was 108 µs before at
-  load 0.3. Target met only on a quiet machine.
+  load 0.3. At the target on a lightly loaded machine, above it under load.
 - Plaza1 replay, seconds for a one-hour log: load ≈ 2.3: 6.8 s CPU (7.2 s wall) before,
-  4.7 s CPU (5.9 s wall) after; at load 0.3 before: 6.6 s wall. Met in CPU time; in wall
-  time only when the machine is not shared.
+  4.7 s CPU (5.9 s wall) after; at load 0.3 before: 6.6 s wall. Met in CPU time; the wall
+  time on a shared machine is above it.
 - Companion tick, CPU per tick at load ≈ 2.3 (median / p99, µs): whole tick 885–930 / 1540
   before, 709–726 / 1394–1417 after; pNav 406–419 / 560 before, 263–272 / 410 after; pHelm
   156 / 230 before, 143 / 230 after; console 33 / 190 before, 7 / 195 after. Target NOT
