@@ -678,10 +678,12 @@ class EKF:
         self._last_dt = dt
         kf = self.kf
         F = self._F
-        if self.config.mobile:
+        mobile = self.config.mobile
+        follows = mobile and self.config.velocity_follows_heading
+        if mobile:
             for i, j in self._rate_of:
                 F[i, j] = dt
-        if self.config.velocity_follows_heading and self.config.mobile:
+        if follows:
             # the velocity turns with the hull: v ← R(Ḣ dt) v, linearised for P
             x = kf.x[:, 0]
             vx, vy, w = x[I_VX], x[I_VY], x[I_VH]
@@ -701,7 +703,7 @@ class EKF:
                 self._q_dt = dt
                 self._q_values = np.dot(np.array((pp, pv, vv, dt)), self._q_blocks)
             kf.P.reshape(-1)[self._q_cells] += self._q_values
-            if self.config.velocity_follows_heading and self.config.mobile:
+            if follows:
                 self._along_track_noise(kf.P, pp, pv, vv)
             if self._wander is not None and self.i_bias is not None:
                 extra, until = self._wander
@@ -982,8 +984,8 @@ class EKF:
         if symmetrise:
             kf.P = 0.5 * (kf.P + kf.P.T)
         x, cfg = kf.x, self.config
-        if self._healthy():
-            state = x[:, 0].tolist()
+        state = x[:, 0].tolist()
+        if self._healthy(state):
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
             self._recover()
@@ -1014,7 +1016,7 @@ class EKF:
                 f"{cfg.max_position_sigma:g} m (MaxEKFPositionUncertainty) at t={self.t:.2f}")
             raise self.failure
 
-    def _healthy(self) -> bool:
+    def _healthy(self, state: list[float] | None = None) -> bool:
         """A finite state and a covariance with no negative variance and no correlation
         beyond ±1: rounding in ``P − K S Kᵀ`` after an observation far more precise than the
         prior can break both, and the filter would then divide by or take roots of them.
@@ -1022,9 +1024,12 @@ class EKF:
         The common case is decided by one Cholesky factorisation: it succeeds only on a
         positive definite P, whose variances are positive and correlations inside ±1 (to
         rounding, far inside the 1e-6 allowed below). Only a P it refuses (a static
-        vehicle's zero rate variances, or a broken one) is checked entry by entry."""
+        vehicle's zero rate variances, or a broken one) is checked entry by entry. ``state``:
+        x as floats, when the caller has them."""
         x, P = self.kf.x, self.kf.P
-        total = np.add.reduce(P, None) + np.add.reduce(x, None)
+        if state is None:
+            state = x[:, 0].tolist()
+        total = np.add.reduce(P, None) + sum(state)  # not finite if any entry is not
         if math.isfinite(total) and dpotrf(P)[1] == 0:
             return True
         if not (np.isfinite(x).all() and np.isfinite(P).all()):
