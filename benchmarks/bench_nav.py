@@ -3,8 +3,31 @@ with the EKF on GPS + compass + DVL + gyro and 20 helm tasks (target p99 ≤ 1 m
 of the real Plaza1 log (target: a one-hour log of that density in ≤ 5 s) and the Plaza1 fault
 variants (``mavhelm nav replay --fault all``: RMS, NEES and decisions of each).
 
-Prints figures; asserts nothing (a shared machine's speed is not a test result).
-Run: ``make bench`` or ``.venv/bin/python -m benchmarks.bench_nav``.
+Prints figures, wall and CPU time, and each target met or not; asserts nothing (a shared
+machine's speed is not a test result). Run: ``make bench`` or
+``.venv/bin/python -m benchmarks.bench_nav``.
+
+Measured on the project's 2-core machine while other work ran on it (load average 1–4), the
+code before and after the hot-path work run alternately in the same conditions; CPU time of
+the thread or process unless said. Every accuracy figure and the fault table are unchanged, to
+the bit (Plaza1 tracks and covariances compared).
+
+- EKF predict+update, observations built before the clock: load ≈ 1.2: 110–128 µs before,
+  50–60 µs after; load 2.5–4: 122–187 µs before, 53–81 µs after (× 0.45). With the
+  observations built inside the timed loop (the former measure) it was 108 µs before at
+  load 0.3. At the target on a lightly loaded machine, above it under load.
+- Plaza1 replay, seconds for a one-hour log: load ≈ 2.3: 6.8 s CPU (7.2 s wall) before,
+  4.7 s CPU (5.9 s wall) after; at load 0.3 before: 6.6 s wall. Met in CPU time; the wall
+  time on a shared machine is above it.
+- Companion tick, CPU per tick at load ≈ 2.3 (median / p99, µs): whole tick 885–930 / 1540
+  before, 709–726 / 1394–1417 after; pNav 406–419 / 560 before, 263–272 / 410 after; pHelm
+  156 / 230 before, 143 / 230 after; console 33 / 190 before, 7 / 195 after. Target NOT
+  met: once a second the autopilot's 1 Hz streams arrive together (23 messages, 14 of which
+  the companion does not use: RAW_IMU, SCALED_IMU2, POWER_STATUS, MEMINFO, AHRS …); decoding
+  them all (pymavlink, ~7 µs each) and handling the others puts that tick's iMAVLink at
+  ~390 µs (p90) to ~630 µs (p99) against a median of ~115 µs. With the serial instruments
+  (pynmea2, ~110 µs), pHelm's 20 tasks (~145 µs) and pNav (~270 µs) a p99 of 1 ms is not
+  within reach by trimming the hot paths alone.
 """
 
 from __future__ import annotations
@@ -34,24 +57,31 @@ def percentiles_us(samples: list[float]) -> str:
     return f"median {np.median(a):7.1f} us   p99 {np.percentile(a, 99):7.1f} us   (n={a.size})"
 
 
-def ekf_updates() -> None:
-    """One EKF with four beacons and every hidden state, fed Plaza-like slices."""
+def ekf_updates() -> tuple[float, float]:
+    """One EKF with four beacons and every hidden state, fed Plaza-like slices. The slices
+    are built before the clock starts: the figure is the filter's predict+update, not the
+    making of observations and random numbers. Returns one cycle's wall and CPU time (s)."""
     beacons = [Beacon(str(k), 30 * math.cos(k), 30 * math.sin(k)) for k in range(4)]
     ekf = EKF(0.0, 0.0, 0.0, beacons=beacons, config=EKFConfig(estimate_yaw_bias=True))
     rng = np.random.default_rng(0)
-    n, t, t0 = 20000, 0.0, time.perf_counter()
+    n, t = 20000, 0.0
+    slices: list[tuple[float, Range | list[BodyVelocity | Yaw]]] = []
     for k in range(n):
         t += 0.1
-        ekf.advance(t)
         if k % 3 == 0:
             b = beacons[k % 4]
-            ekf.update(Range(t, b.name, math.hypot(b.x, b.y) + rng.normal(0, 0.3)))
+            slices.append((t, Range(t, b.name, math.hypot(b.x, b.y) + rng.normal(0, 0.3))))
         else:
-            ekf.update([BodyVelocity(t, 0.0, 0.0, 0.0), Yaw(t, 0.0)])
-    seconds = time.perf_counter() - t0
-    print(f"EKF (dim {ekf.dim}): {n / seconds:,.0f} predict+update cycles/s "
-          f"({1e6 * seconds / n:.0f} us each)")
-
+            slices.append((t, [BodyVelocity(t, 0.0, 0.0, 0.0), Yaw(t, 0.0)]))
+    wall, cpu = time.perf_counter(), time.thread_time()
+    for t, observations in slices:
+        ekf.advance(t)
+        ekf.update(observations)
+    cpu = (time.thread_time() - cpu) / n
+    wall = (time.perf_counter() - wall) / n
+    print(f"EKF (dim {ekf.dim}): {1 / wall:,.0f} predict+update cycles/s "
+          f"({1e6 * wall:.0f} us each wall, {1e6 * cpu:.0f} us CPU)")
+    return wall, cpu
 
 
 EXTRA_TASKS = 17
@@ -83,9 +113,10 @@ def _extra_tasks() -> str:
     return "".join(boxes + headings)
 
 
-def tick_with_ekf() -> None:
+def tick_with_ekf() -> tuple[float, float]:
     """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
-    20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick."""
+    20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick (wall
+    and the thread's CPU time). Returns the whole tick's p99, wall and CPU (s)."""
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
@@ -94,18 +125,31 @@ def tick_with_ekf() -> None:
     with tempfile.TemporaryDirectory() as folder:
         run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))
         try:
-            run.run.companion.community.profile = True
+            companion = run.run.companion
+            companion.community.profile = True
+            cpu: list[float] = []
+            tick = companion.tick
+
+            def timed_tick(now: float) -> None:
+                t0 = time.thread_time()
+                tick(now)
+                cpu.append(time.thread_time() - t0)
+
+            companion.tick = timed_tick  # type: ignore[method-assign]
             run.run.hand_over()
             run.run.run_for(300.0)
-            seconds = run.run.companion.community.app_seconds
+            seconds = companion.community.app_seconds
             nav, helm = seconds["pNav"], seconds["pHelm"]
             both = [a + b for a, b in zip(nav, helm, strict=True)]
-            count = len(run.run.companion.helm.tasks)
+            count = len(companion.helm.tasks)
             print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {count} "
                   "helm tasks (10 Hz tick)")
             print(f"  pNav          {percentiles_us(nav)}")
             print(f"  helm+nav tick {percentiles_us(both)}")
-            print(f"  whole companion tick {percentiles_us(run.run.companion_tick_seconds)}")
+            whole = run.run.companion_tick_seconds
+            print(f"  whole companion tick {percentiles_us(whole)}")
+            print(f"  whole tick, CPU      {percentiles_us(cpu)}")
+            return float(np.percentile(whole, 99)), float(np.percentile(cpu, 99))
         finally:
             run.close()
 
@@ -120,24 +164,29 @@ def _plaza(folder: Path) -> tuple[Block, list[Message]]:
     return block, read_alog(alog)
 
 
-def plaza_replay() -> None:
+def plaza_replay() -> tuple[float, float] | None:
+    """Plaza1 through the navigator, best of three (wall and CPU each); returns the wall and
+    CPU time a one-hour log of that density would take (s), None without the data."""
     if not PLAZA.exists():
         print(f"Plaza replay: skipped, {PLAZA} is absent")
-        return
+        return None
     with tempfile.TemporaryDirectory() as folder:
         block, messages = _plaza(Path(folder))
-        walls = []
+        runs = []
         for _ in range(3):  # a shared machine: the best of three is the code's own speed
             wall, cpu = time.perf_counter(), time.process_time()
             result = replay(block, messages)
-            walls.append((time.perf_counter() - wall, time.process_time() - cpu))
-        wall, cpu = min(walls)
+            runs.append((time.perf_counter() - wall, time.process_time() - cpu))
+        wall = min(w for w, _ in runs)
+        cpu = min(c for _, c in runs)
+        hour = 3600 / result.span
         print(f"Plaza1 replay through the navigator: {result.span:.0f} s of log, "
               f"{len(messages)} variables, {result.ticks} ticks; runs "
-              + ", ".join(f"{w:.2f}" for w, _ in walls) + " s wall")
+              + ", ".join(f"{w:.2f}" for w, _ in runs) + " s wall")
         print(f"  best {wall:.2f} s wall ({cpu:.2f} s CPU): {result.span / wall:.0f}x real time; "
-              f"a one-hour log of this density: {3600 / result.span * wall:.1f} s")
+              f"a one-hour log of this density: {hour * wall:.1f} s wall ({hour * cpu:.1f} s CPU)")
         print(f"  accuracy: {result.accuracy('NAV')}")
+        return hour * wall, hour * cpu
 
 
 def plaza_faults() -> None:
@@ -160,11 +209,26 @@ def plaza_faults() -> None:
                   + (f"; FAILURE {result.failure}" if result.failure else ""))
 
 
+def _target(what: str, figures: tuple[float, float] | None, limit: float, unit: str,
+            scale: float) -> str:
+    """One target's line: wall time (what the issue asks) and CPU time (the code's own cost
+    when other work shares the machine), each met or not."""
+    if figures is None:
+        return f"  {what} <= {limit:g} {unit}: not measured"
+    said = [f"{value * scale:.1f} {unit} {kind} ({'met' if value * scale <= limit else 'NOT MET'})"
+            for kind, value in zip(("wall", "CPU"), figures, strict=True)]
+    return f"  {what} <= {limit:g} {unit}: " + ", ".join(said)
+
+
 def main() -> None:
-    ekf_updates()
-    plaza_replay()
+    cycle = ekf_updates()
+    hour = plaza_replay()
     plaza_faults()
-    tick_with_ekf()
+    p99 = tick_with_ekf()
+    print("targets (issue 15 item 7), on this machine now:")
+    print(_target("EKF predict+update", cycle, 50, "us", 1e6))
+    print(_target("whole companion tick p99", p99, 1, "ms", 1e3))
+    print(_target("one-hour log replayed", hour, 5, "s", 1.0))
 
 
 if __name__ == "__main__":

@@ -116,8 +116,24 @@ class BusEvents:
 
     def __init__(self) -> None:
         self._states: dict[str, float | str] = {}
+        self._silent: set[str] = set()
+        """Names that are never an event (most of a tick's mail): told apart once."""
 
     def of(self, msg: Message) -> Event | None:
+        if msg.name in self._silent:
+            return None
+        event = self._of(msg)
+        if event is None and self._never_an_event(msg.name):
+            self._silent.add(msg.name)
+        return event
+
+    @staticmethod
+    def _never_an_event(name: str) -> bool:
+        return (name not in STATES and name not in EVENT_OF
+                and not (name.startswith("NAV_") and name.endswith("_SOURCE"))
+                and not any(name.endswith(suffix) for suffix, _ in ALERT_SEVERITY))
+
+    def _of(self, msg: Message) -> Event | None:
         if msg.name in STATES:
             if self._states.get(msg.name) == msg.value:
                 return None

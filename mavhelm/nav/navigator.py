@@ -253,6 +253,10 @@ def _start(settings: dict) -> Start | None:
 _UNSET: Final = object()
 
 
+_STD_AXIS = {"X": 0, "Y": 1}
+"""The NAV variables with a published 1-σ (NAV_X_STD, NAV_Y_STD): their axis in a source's σ."""
+
+
 class Navigator(App):
     """Forwards the best live source of each NAV key; says which source that is; runs the
     filters when sensors are declared."""
@@ -363,7 +367,7 @@ class Navigator(App):
         if self.watch is not None:
             self.watch.heard(((m.name, m.value) for m in mail), now)
         for msg in mail:
-            self._route(msg.name, msg, now)
+            self._route(msg.name, msg.value, msg.time, now)
         if self.reader is not None and self.fusion is not None:
             readings, altitudes = self.reader.read(mail)
             for reading in readings:
@@ -372,17 +376,17 @@ class Navigator(App):
                 if self.fusion.online:
                     self._offer("EKF_ALTITUDE", altitude, t, now)
 
-    def _route(self, name: str, msg: Message, now: float) -> None:
+    def _route(self, name: str, value: float | str, t: float, now: float) -> None:
         routes = self._inputs.get(name)
-        if not routes or not msg.is_double or not math.isfinite(msg.double):
+        if not routes or isinstance(value, str) or not math.isfinite(value):
             return
         for queue, source in routes:
-            if now - msg.time > queue.timeout(source):
+            if now - t > queue.timeout(source):
                 continue
-            if queue.offer(source, msg.double, msg.time):
+            if queue.offer(source, value, t):
                 self._announce(queue.key, source)
-                self._post(queue.key, msg.double, msg.time)
-                self._post_std(queue.key, source, msg.time)
+                self._post(queue.key, value, t)
+                self._post_std(queue.key, source, t)
 
     def _offer(self, name: str, value: float, t: float, now: float) -> None:
         """Post a filter output and offer it to the queues, as a sensor's value would be."""
@@ -390,7 +394,7 @@ class Navigator(App):
             return
         self.notify(name, value, t)
         if name in self._inputs:
-            self._route(name, Message(name, value, t, self.name), now)
+            self._route(name, value, t, now)
 
     def iterate(self, now: float) -> None:
         if self.fusion is not None:
@@ -458,7 +462,7 @@ class Navigator(App):
 
     def _post_std(self, key: str, source: str, time: float) -> None:
         """NAV_X_STD/NAV_Y_STD: the 1-σ of the position just posted, from its source."""
-        axis = {"X": 0, "Y": 1}.get(key)
+        axis = _STD_AXIS.get(key)
         std = self._std.get(source)
         if axis is not None and std is not None and math.isfinite(std[axis]):
             self.notify(f"NAV_{key}_STD", std[axis], time)

@@ -100,13 +100,14 @@ class CovarianceTrack:
     def take(self, ekf: EKF) -> None:
         if self.t and ekf.t <= self.t[-1]:
             return
-        P = ekf.position_covariance()
+        (pxx, pxy), (_pyx, pyy) = ekf.position_covariance().tolist()
+        x, y = ekf.x[:2, 0].tolist()
         self.t.append(ekf.t)
-        self.x.append(float(ekf.x[0, 0]))
-        self.y.append(float(ekf.x[1, 0]))
-        self.pxx.append(float(P[0, 0]))
-        self.pxy.append(float(P[0, 1]))
-        self.pyy.append(float(P[1, 1]))
+        self.x.append(x)
+        self.y.append(y)
+        self.pxx.append(pxx)
+        self.pxy.append(pxy)
+        self.pyy.append(pyy)
 
 
 @dataclass
@@ -239,15 +240,22 @@ class _Recorder:
     tracks: dict[str, Track] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     pending: dict[tuple[str, float], float] = field(default_factory=dict)
+    names: dict[str, tuple[str, str, str]] = field(default_factory=dict)
+    """Per variable: its source, its axis and its partner's name (``EKF_X``: EKF, X,
+    EKF_Y), split once."""
 
     def take(self, mail: list[Message]) -> None:
         for m in mail:
             if m.name == "NAV_WARNING":
                 self.warnings.append(m.string)
                 continue
-            source, _, axis = m.name.rpartition("_")
-            other = "Y" if axis == "X" else "X"
-            partner = self.pending.pop((f"{source}_{other}", m.time), None)
+            split = self.names.get(m.name)
+            if split is None:
+                source, _, axis = m.name.rpartition("_")
+                split = self.names[m.name] = (source, axis,
+                                              f"{source}_{'Y' if axis == 'X' else 'X'}")
+            source, axis, other = split
+            partner = self.pending.pop((other, m.time), None)
             if partner is None:
                 self.pending[(m.name, m.time)] = m.double
                 continue

@@ -48,6 +48,8 @@ class SensorWatch:
         self._last: dict[str, float] = {}
         self._online_since: float | None = None
         self._warned: set[str] = set()
+        self._readers: dict[str, tuple[str, ...]] = {}
+        """Per variable name, the sensors that read it: found once per name."""
 
     def heard(self, names: Iterable[tuple[str, float | str]], now: float) -> None:
         """Variable names with their value (HELM_ONLINE's matters) that arrived this tick."""
@@ -59,10 +61,13 @@ class SensorWatch:
                 elif not online:
                     self._online_since = None
                 continue
-            for spec in self.sensors:
-                if _reads(spec, name):
-                    self._last[spec.name] = now
-                    self._warned.discard(spec.name)
+            readers = self._readers.get(name)
+            if readers is None:
+                readers = self._readers[name] = tuple(
+                    spec.name for spec in self.sensors if _reads(spec, name))
+            for sensor in readers:
+                self._last[sensor] = now
+                self._warned.discard(sensor)
 
     def warnings(self, now: float) -> list[str]:
         """One line per sensor that has just become silent for ``silence`` seconds."""

@@ -343,20 +343,21 @@ class SensorReader:
         altitudes: list[tuple[float, float]] = []
         for msg in mail:
             routes = self._routes.get(msg.name)
-            if not routes or not msg.is_double:
+            value, t = msg.value, msg.time
+            if not routes or isinstance(value, str):
                 continue
-            if not math.isfinite(msg.double):
+            if not math.isfinite(value):
                 self.bad += 1
                 continue
             for sensor, part, channel in routes:
                 if sensor.type in ("LBL", "RANGE"):
-                    reading = self._ranging(sensor, channel, msg.double, msg.time)
+                    reading = self._ranging(sensor, channel, value, t)
                     if reading is not None:
                         readings.append(reading)
                 elif sensor.type == "ALTITUDE":
-                    altitudes.append((msg.time, msg.double - sensor.lever[2]))
+                    altitudes.append((t, value - sensor.lever[2]))
                 else:
-                    parts.setdefault((id(sensor), msg.time), {})[part] = msg.double
+                    parts.setdefault((id(sensor), t), {})[part] = value
         by_id = {id(s): s for s in self.sensors}
         for (key, t), values in parts.items():
             reading = self._joined(by_id[key], t, values)

@@ -106,6 +106,11 @@ class NavState:
     def get(self, name: str) -> float | None:
         return self._values.get(name)
 
+    @property
+    def any_lost(self) -> bool:
+        """Whether pNav has declared any variable lost (most ticks: none, nothing to check)."""
+        return bool(self._lost)
+
     def lost(self, name: str) -> bool:
         """pNav has no live source for this variable: its last value must not be acted on."""
         return name in self._lost
@@ -299,12 +304,12 @@ class Task:
         """
         assert self.start_time is not None
         silent = []
-        for name in sorted(self.needs() if needs is None else needs):
+        for name in self.needs() if needs is None else needs:
             t = nav.time(name)
             since = self.start_time if t is None else t
             if now - since > STARVATION_S:
                 silent.append(name)
-        return silent
+        return sorted(silent)
 
     def step(self, nav: NavState, now: float) -> Votes | None:
         """One online tick: time-out, starvation, then the task's own update.
@@ -328,7 +333,7 @@ class Task:
             return None
         if any(nav.get(name) is None for name in needs):
             return None
-        lost = sorted(name for name in needs if nav.lost(name))
+        lost = sorted(name for name in needs if nav.lost(name)) if nav.any_lost else []
         if lost:
             if not self._holding:
                 self.post(f"{self.name}_WARNING",
