@@ -171,3 +171,44 @@ def test_a_flood_is_bounded_and_the_newest_heartbeat_survives():
         assert link.stats.bytes_dropped > len(flood) // 2
         parsed_attitudes = sum(m.get_type() == "ATTITUDE" for m in got)
         assert parsed_attitudes < 152000 * 0.1, "most of the flood is dropped, not parsed"
+
+
+def test_only_what_the_reader_reads_is_decoded_and_every_frame_is_recorded():
+    """A bridge's link decodes only its messages: RAW_IMU and MEMINFO (ArduPilot's default
+    streams) pass as counted, recorded frames; a MAVLink 1 frame and a corrupt one too."""
+    from mavhelm.companion.bridge.config import BridgeConfig
+    from mavhelm.companion.bridge.handlers import read_messages
+
+    recorded: list[bytes] = []
+    with connected() as (ap, link, _port):
+        link.recorder = recorded.append
+        link.decode_only(read_messages(BridgeConfig()))
+        raw_imu = ap.frame("raw_imu", time_usec=1, xacc=1, yacc=2, zacc=3, xgyro=4, ygyro=5,
+                           zgyro=6, xmag=7, ymag=8, zmag=9)
+        corrupt = bytearray(ap.frame("meminfo", brkval=1, freemem=2))
+        corrupt[-1] ^= 0xFF
+        v1 = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        v1.WIRE_PROTOCOL_VERSION = "1.0"
+        v1_ahrs = v1.ahrs_encode(0, 0, 0, 0, 0, 0, 0).pack(v1, force_mavlink1=True)
+        sys_status = ap.frame("sys_status", onboard_control_sensors_present=0,
+                              onboard_control_sensors_enabled=0,
+                              onboard_control_sensors_health=0, load=0, voltage_battery=0,
+                              current_battery=0, battery_remaining=0, drop_rate_comm=0,
+                              errors_comm=0, errors_count1=0, errors_count2=0,
+                              errors_count3=0, errors_count4=0)
+        assert ap.conn is not None
+        ap.conn.sendall(raw_imu + ap.heartbeat() + bytes(corrupt) + v1_ahrs + sys_status)
+        got = poll_until(link, 0.0, lambda got: len(got) >= 2)
+    assert [m.get_type() for m in got] == ["HEARTBEAT", "SYS_STATUS"], "SYS_STATUS: a stream"
+    assert link.stats.skimmed == 3
+    assert len(recorded) == 5 and recorded[0] == raw_imu and recorded[2] == bytes(corrupt)
+
+
+def test_a_link_told_nothing_decodes_everything():
+    with connected() as (ap, link, _port):
+        raw_imu = ap.frame("raw_imu", time_usec=1, xacc=1, yacc=2, zacc=3, xgyro=4, ygyro=5,
+                           zgyro=6, xmag=7, ymag=8, zmag=9)
+        assert ap.conn is not None
+        ap.conn.sendall(raw_imu)
+        got = poll_until(link, 0.0, lambda got: len(got) >= 1)
+    assert got[0].get_type() == "RAW_IMU" and got[0].zgyro == 6 and link.stats.skimmed == 0

@@ -13,6 +13,10 @@ at 10 Hz must never wait on a socket. Here
   flood neither silences the helm nor grows memory, and the mode is never lost;
 - every (re)connection increments ``generation``, so the bridge can refuse to actuate on a link
   it has not yet heard a HEARTBEAT on;
+- only the messages the reader reads are decoded (``decode_only``): pymavlink's decode costs
+  several microseconds a message, and an ArduPilot link's default streams carry a dozen a
+  second the companion never reads (RAW_IMU, AHRS, MEMINFO, ...); the others are recorded whole
+  in the ``.tlog`` and counted, not unpacked;
 - what happens is said once in ``events`` (for the console and the bus), never printed.
 """
 
@@ -22,7 +26,7 @@ import errno
 import os
 import select
 import socket
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -265,6 +269,29 @@ class LinkStats:
     bytes_written: int = 0
     bytes_dropped: int = 0
     connects: int = 0
+    skimmed: int = 0
+    """Frames of messages the reader does not read: recorded, not decoded."""
+
+
+class Skimmed(mavlink.MAVLink_unknown):
+    """A frame of a message the reader never reads: its bytes, neither checked nor unpacked."""
+
+
+class SkimmingParser(mavlink.MAVLink):
+    """pymavlink's parser, decoding only the message ids in ``decoded`` (None: every one)."""
+
+    decoded: frozenset[int] | None = None
+
+    def decode(self, msgbuf: bytearray) -> mavlink.MAVLink_message:
+        wanted = self.decoded
+        if wanted is not None:
+            if msgbuf[0] == mavlink.PROTOCOL_MARKER_V2:
+                msgid = msgbuf[7] | msgbuf[8] << 8 | msgbuf[9] << 16 if len(msgbuf) > 9 else None
+            else:
+                msgid = msgbuf[5] if len(msgbuf) > 5 else None
+            if msgid is not None and msgid not in wanted:
+                return Skimmed(msgid, msgbuf)
+        return super().decode(msgbuf)
 
 
 @dataclass
@@ -289,8 +316,8 @@ class AutopilotLink:
     def __post_init__(self) -> None:
         if self.transport is None:
             self.transport = transport_for(self.url, self.baud)
-        self.mav = mavlink.MAVLink(self, srcSystem=self.system_id,
-                                   srcComponent=self.component_id)
+        self.mav = SkimmingParser(self, srcSystem=self.system_id,
+                                  srcComponent=self.component_id)
         self.mav.robust_parsing = True
         self._buffer = bytearray(READ_CAP)
         self.backoff = Backoff(RETRY_FIRST_S, RETRY_MAX_S)
@@ -386,7 +413,16 @@ class AutopilotLink:
             for msg in kept:
                 if msg.get_type() != "BAD_DATA":
                     self.recorder(bytes(msg.get_msgbuf()))
+        if self.mav.decoded is not None:
+            read = [msg for msg in kept if not isinstance(msg, Skimmed)]
+            self.stats.skimmed += len(kept) - len(read)
+            return read
         return kept
+
+    def decode_only(self, names: Iterable[str]) -> None:
+        """Decode only these messages (ardupilotmega names); the rest are skimmed."""
+        self.mav.decoded = frozenset(getattr(mavlink, f"MAVLINK_MSG_ID_{name}")
+                                     for name in names)
 
     def _newest_heartbeat(self, data: bytearray, end: int) -> mavlink.MAVLink_message | None:
         """The last valid HEARTBEAT from the autopilot in ``data[:end]`` (bytes about to be

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.bridge.config import BridgeConfig, make_actuation
-from mavhelm.companion.bridge.handlers import handle
+from mavhelm.companion.bridge.handlers import handle, read_messages
 from mavhelm.companion.bridge.output import NAMED_VALUES, OutputPath
 from mavhelm.companion.bridge.readings import WheelOdometry
 from mavhelm.companion.bridge.senders import SenderGate
@@ -48,6 +48,7 @@ class MavlinkBridge:
         self.link = link if link is not None else AutopilotLink(
             config.connect, config.baud, config.system_id, config.component_id,
             config.target_system, config.target_component)
+        self.link.decode_only(read_messages(config))
         self.time_source = time_source
         """Told every autopilot ``time_boot_ms`` (in seconds): the autopilot clock's feed."""
         self.signing = config.signing_key_file is not None

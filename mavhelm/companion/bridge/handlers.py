@@ -17,7 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS, SUB_PRESSURE_PARAMS, SubGuided
-from mavhelm.companion.bridge.config import make_actuation
+from mavhelm.companion.bridge.config import BridgeConfig, make_actuation
 from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
 from mavhelm.companion.mode_request import modes_for
 from mavhelm.companion.signing import send_setup_signing, signature
@@ -388,6 +388,12 @@ def _warn_unsigned(bridge: MavlinkBridge, how: str) -> None:
     bridge.input.notify("MAVLINK_WARNING", f"the autopilot's packets are {what}: all are "
                         "ignored, as RequireSigning is on; set the autopilot up (SetupSigning "
                         "= true, or MAVProxy `signing setup`) with the key file's passphrase")
+
+
+def read_messages(config: BridgeConfig) -> frozenset[str]:
+    """Every message the bridge reads (its handlers', and the streams it asks for, which it
+    checks are heard): the link decodes only these."""
+    return frozenset(FROM_AUTOPILOT) | frozenset(TO_COMPANION) | frozenset(config.streams)
 
 
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
