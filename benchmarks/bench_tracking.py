@@ -96,10 +96,13 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.bridge.config import IMAVLINK_SCHEMA
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import load_mission, parse_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.tasks.geometry import Point2, lawnmower, track_position
+from mavhelm.tasks.pid import GAIN_PARAMS
+from mavhelm.tasks.trackline import DEFAULT_LEAD_TIME
 from tests.support.ardupilot import (
     SKIP_REASON,
     CompanionProcess,
@@ -137,18 +140,37 @@ class Helm:
 
     name: str
     yaw_kp: float
-    lead: float
+    lead: float | None
+    """Lead (m); None: the tasks' default, LeadTime × speed."""
     max_turn_rate: float = 45.0
     app_tick: float = 10.0
     stream_hz: float = 0.0
     """ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT rate; 0: the bridge's defaults."""
     yaw_kd: float = 0.2
+    lead_time: float | None = None
+    """LeadTime (s) when ``lead`` is None; None: the tasks' default."""
+
+    def lead_line(self) -> str:
+        if self.lead is not None:
+            return f"Lead       = {self.lead:g}"
+        if self.lead_time is not None:
+            return f"LeadTime   = {self.lead_time:g}"
+        return "// Lead: the default"
 
 
 TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead=3.0,
              max_turn_rate=90.0)
-DEFAULTS = Helm("product defaults: MaxTurnRate 45, YAW_PID_KP 0.5, Lead 5", yaw_kp=0.5,
-                lead=5.0)
+def product_defaults() -> Helm:
+    """The product's defaults, read from their declarations."""
+    kp = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KP")
+    kd = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KD")
+    rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
+    return Helm(f"product defaults: MaxTurnRate {rate:g}, YAW_PID_KP {kp:g}, "
+                f"LeadTime {DEFAULT_LEAD_TIME:g} s", yaw_kp=kp, lead=None,
+                max_turn_rate=rate, yaw_kd=kd)
+
+
+DEFAULTS = product_defaults()
 
 
 
@@ -161,7 +183,7 @@ SURVEY = f"""
         B          = {B:g}
         Spacing    = {SPACING:g}
         Rotation   = {ROTATION:g}
-        Lead       = {{lead:g}}
+        {{lead}}
         Thrust     = 100
         TimeOut    = 380
         FinishFlag = EndMission
@@ -187,7 +209,7 @@ def chain_tasks() -> str:
         P1         = {x1:g}, {y1:g}
         P2         = {x2:g}, {y2:g}
         Radius     = {CAPTURE:g}
-        Lead       = {{lead:g}}
+        {{lead}}
         Thrust     = 100
         TimeOut    = 120
 {start}        FinishFlag = {finish}
@@ -204,7 +226,7 @@ def mission_text(kind: str, helm: Helm) -> str:
                for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
                if helm.stream_hz]
     return standard_mission(
-        TASKS[kind].format(lead=helm.lead), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
+        TASKS[kind].format(lead=helm.lead_line()), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
         imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
                   *streams],
         helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,

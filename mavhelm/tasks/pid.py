@@ -114,7 +114,7 @@ def _pid_params(prefix: str, attr: str, what: str, defaults: tuple[float, ...]) 
 
 GAIN_PARAMS: tuple[Param, ...] = (
     *_pid_params("YAW", "yaw", "heading controller (deg of rudder per deg of error)",
-                 (0.5, 0.2, 0.0, 2.0)),
+                 (0.75, 0.2, 0.0, 2.0)),
     *_pid_params("Z_TO_PITCH", "z_to_pitch", "depth-to-pitch controller", (0.5, 0.0, 0.0, 0.0)),
     *_pid_params("PITCH", "pitch", "pitch-to-elevator controller", (0.5, 0.0, 0.0, 0.0)),
     Param("MAXRUDDER", ANGLE_LIMIT, 20.0, "deg", "rudder limit; full rudder = MaxTurnRate",
@@ -132,7 +132,7 @@ GAIN_PARAMS: tuple[Param, ...] = (
 class HelmGains:
     """Controller gains and actuator limits from the pHelm block, shared by every task."""
 
-    yaw_kp: float = 0.5
+    yaw_kp: float = 0.75
     yaw_kd: float = 0.2
     yaw_ki: float = 0.0
     yaw_integral_limit: float = 2.0

@@ -24,7 +24,7 @@ from mavhelm.core.mission import Block
 from mavhelm.core.params import Number, Param, Point, Seconds
 from mavhelm.tasks.base import NavState, Votes
 from mavhelm.tasks.geometry import Point2, lawnmower
-from mavhelm.tasks.trackline import DEFAULT_LEAD, LEAD, RouteTask
+from mavhelm.tasks.trackline import LEAD_PARAMS, RouteTask
 
 EXTENT = Number(0.0, 100_000.0, lo_open=True)
 MAX_LEGS = 1000
@@ -44,9 +44,7 @@ class Survey(RouteTask):
         Param("Spacing", EXTENT, unit="m", doc="distance between legs, at most B"),
         Param("Rotation", Number(-360.0, 360.0), 0.0, "deg",
               "direction of the legs (of leg 0), clockwise from north"),
-        Param("Lead", LEAD, DEFAULT_LEAD, "m",
-              "the carrot's lead along each line beyond the vehicle's projection on it (the "
-              "original's default is 1 m)"),
+        *LEAD_PARAMS,
         Param("LegTimeOut", Seconds(), None, "s",
               "a leg flown longer than this is abandoned for the next one (default NEVER: "
               "no limit, as a long leg is not a fault; the original's default is 100 s)",

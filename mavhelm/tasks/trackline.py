@@ -107,17 +107,43 @@ from __future__ import annotations
 import math
 from collections import deque
 
+from collections.abc import Iterable
+
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
-from mavhelm.tasks.base import HEADING, NavState, Votes
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
 from mavhelm.tasks.waypoint import RADIUS
 
 LEAD = Number(1.0, 10_000.0)
 """The carrot's lead along the line in metres (MOOS: at least 1 m)."""
+MIN_LEAD = 1.0
+"""The shortest lead a lead time gives (LEAD's minimum): at rest the carrot is still ahead."""
 
-DEFAULT_LEAD = 5.0
+LEAD_TIME = Number(0.1, 60.0)
+DEFAULT_LEAD_TIME = 1.5
+"""The carrot's lead in seconds of the vehicle's speed over the ground (see the module
+docstring: the pursuit's damping depends on the lead time, not on the lead)."""
+
+LEAD_PARAMS = (
+    Param("Lead", LEAD, None, "m",
+          "the carrot's lead along the line beyond the vehicle's projection on it, fixed; "
+          "default: LeadTime × the speed over the ground (the original's default is 1 m, "
+          "which turns a boat sharply onto the line)"),
+    Param("LeadTime", LEAD_TIME, DEFAULT_LEAD_TIME, "s",
+          "without Lead, the carrot leads by this many seconds of the speed over the "
+          "ground (at least 1 m), so the line is held as well at any speed",
+          attr="lead_time"),
+)
+"""The lead settings of every task that flies track lines (TrackLine, Survey)."""
+
+SPEED_BASELINE_S = 1.0
+"""The speed over the ground is measured between fixes at least this far apart (GPS noise)."""
+
+CHAIN_GAP = 0.1
+"""A TrackLine whose P1 is this close (m) to the P2 of the TrackLine that starts it continues
+that line: the first turns in to it (``link_track_lines``)."""
 
 XTE_TI_LEADS = 3.0
 """The integral's time constant in pursuit time constants (Lead / speed): the correction grows
@@ -225,18 +251,55 @@ class LineFollower:
         return wrap_degrees(aim - self.correction) % 360.0
 
 
+class Speedometer:
+    """Speed over the ground from the position fixes, over a baseline of at least
+    ``SPEED_BASELINE_S`` (GPS noise). Shared by the TrackLines of a chain, so a line that
+    starts mid-turn knows the speed at once."""
+
+    def __init__(self) -> None:
+        self.speed: float | None = None
+        self._fixes: deque[tuple[float, float, float]] = deque()
+
+    def update(self, t: float, p: Point2) -> None:
+        fixes = self._fixes
+        if fixes and t <= fixes[-1][0]:
+            return
+        fixes.append((t, p[0], p[1]))
+        while len(fixes) > 1 and t - fixes[1][0] >= SPEED_BASELINE_S:
+            fixes.popleft()
+        t0, x0, y0 = fixes[0]
+        if t - t0 >= SPEED_BASELINE_S:
+            self.speed = math.hypot(p[0] - x0, p[1] - y0) / (t - t0)
+
+
 class RouteTask(SteeringTask):
     """A task that flies a chain of track lines: target 0 from where the vehicle is when the
     task goes active, then target k-1 → target k. A subclass says where the targets are.
 
     Hooks: ``plan(start, now)`` once, on the first tick with a position; ``target(k)`` (None
     after the last); ``capture_radius(k)``; ``begin(k, now)`` when the line to target k starts;
-    ``arrived(k, now)`` when target k is reached. ``lead`` is the carrot's lead in metres.
+    ``arrived(k, now)`` when target k is reached; ``after(k)``, the point after target k (the
+    next target unless the subclass knows more). ``lead`` is the carrot's lead in metres, or
+    None for ``lead_time`` seconds of the speed over the ground.
     """
 
-    lead: float = DEFAULT_LEAD
+    lead: float | None = None
+    lead_time: float = DEFAULT_LEAD_TIME
     follower: LineFollower | None = None
+    speedometer: Speedometer | None = None
     index = -1
+
+    def current_lead(self) -> float:
+        """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
+        if self.lead is not None:
+            return self.lead
+        speed = self.speed_source().speed
+        return max(MIN_LEAD, self.lead_time * (speed or 0.0))
+
+    def speed_source(self) -> Speedometer:
+        if self.speedometer is None:
+            self.speedometer = Speedometer()
+        return self.speedometer
 
     def needs(self) -> set[str]:
         return {"NAV_X", "NAV_Y", HEADING}
@@ -274,21 +337,26 @@ class RouteTask(SteeringTask):
     def arrived(self, k: int, now: float) -> None:
         """Target k is reached (within its capture radius, or passed along the line)."""
 
+    def after(self, k: int) -> Point2 | None:
+        """The point the line after target k runs to (None: the route ends at target k)."""
+        return self.target(k + 1)
+
     def turn_in(self, k: int) -> float:
         """How far before target k to start the line after it, in metres, as a skipper turns
         in before a corner so as to come out of the turn on the new line rather than swing
         past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
         the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
         once), at most one Lead and half the next line. 0 at the last target."""
-        p2, after = self.target(k), self.target(k + 1)
+        p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
             return 0.0
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
-        ahead = self.lead * math.tan(math.radians(min(turn, 90.0) / 2.0))
-        return min(ahead, self.lead, 0.5 * distance(p2, after), 0.5 * follower.length)
+        lead = self.current_lead()
+        ahead = lead * math.tan(math.radians(min(turn, 90.0) / 2.0))
+        return min(ahead, lead, 0.5 * distance(p2, after), 0.5 * follower.length)
 
     # ---- driving -------------------------------------------------------------------------
 
@@ -299,7 +367,7 @@ class RouteTask(SteeringTask):
         if p2 is None:
             self.follower = None
             return False
-        self.follower = LineFollower(p1, p2, self.lead)
+        self.follower = LineFollower(p1, p2, self.current_lead())
         self.segment_start_time = now
         self.begin(k, now)
         return True
@@ -307,6 +375,8 @@ class RouteTask(SteeringTask):
     def update(self, nav: NavState, now: float) -> Votes | None:
         assert nav.x is not None and nav.y is not None
         here = (nav.x, nav.y)
+        t = nav.time("NAV_X")
+        self.speed_source().update(now if t is None else t, here)
         if self.index < 0:
             self.plan(here, now)
             if not self.start_line(0, here, now):
@@ -330,6 +400,7 @@ class RouteTask(SteeringTask):
             return None
         assert nav.x is not None and nav.y is not None
         t = nav.time("NAV_X")
+        follower.lead = self.current_lead()
         heading = follower.heading((nav.x, nav.y), now if t is None else t)
         self.post(f"{self.name}_XTE", round(follower.xte, 3))
         return self.drive(heading, nav)
@@ -345,9 +416,7 @@ class TrackLine(RouteTask):
               "active, i.e. the previous waypoint of a chain"),
         Param("P2", Point(), unit="m", doc="end of the line (x,y), the goal",
               aliases=(Alias("Location"),)),
-        Param("Lead", LEAD, DEFAULT_LEAD, "m",
-              "the carrot's lead along the line beyond the vehicle's projection on it (the "
-              "original's default is 1 m, which turns a boat sharply onto the line)"),
+        *LEAD_PARAMS,
         Param("Radius", RADIUS, 3.0, "m",
               "capture radius at P2: the task completes closer than this (or once past P2; "
               "the original's default is 0)"),
@@ -355,6 +424,9 @@ class TrackLine(RouteTask):
     p1: tuple[float, float, float | None] | None
     p2: tuple[float, float, float | None]
     radius: float
+    next_point: Point2 | None = None
+    """The P2 of the TrackLine this one starts, when that one continues from this P2
+    (``link_track_lines``): this line is then left a turn-in early."""
 
     def check(self, block) -> None:
         if self.p1 is not None and math.hypot(self.p2[0] - self.p1[0],
@@ -366,10 +438,39 @@ class TrackLine(RouteTask):
     def target(self, k: int) -> Point2 | None:
         return (self.p2[0], self.p2[1]) if k == 0 else None
 
+    def after(self, k: int) -> Point2 | None:
+        return self.next_point if k == 0 else None
+
     def capture_radius(self, k: int) -> float:
-        return self.radius
+        return max(self.radius, self.turn_in(k))
 
     def start_line(self, k: int, p1: Point2, now: float) -> bool:
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
         return super().start_line(k, p1, now)
+
+
+def link_track_lines(tasks: Iterable[Task]) -> None:
+    """Chain the TrackLines a mission chains by its flags: when exactly one TrackLine is
+    started by this one's FinishFlag and continues from its P2 (its P1 within ``CHAIN_GAP``),
+    this one knows the next line and turns in to it as a route does (``RouteTask.turn_in``),
+    and the two share their measure of the speed."""
+    lines = [t for t in tasks if isinstance(t, TrackLine)]
+    links: list[tuple[TrackLine, TrackLine]] = []
+    for first in lines:
+        finish = set(first.finish_flags)
+        then = [t for t in lines if t is not first and finish & set(t.start_flags)
+                and t.p1 is not None
+                and distance((t.p1[0], t.p1[1]), (first.p2[0], first.p2[1])) < CHAIN_GAP]
+        if len(then) == 1:
+            first.next_point = (then[0].p2[0], then[0].p2[1])
+            links.append((first, then[0]))
+    for _ in range(len(links)):
+        changed = False
+        for first, then in links:
+            shared = first.speed_source()
+            if then.speedometer is not shared:
+                then.speedometer = shared
+                changed = True
+        if not changed:
+            break
