@@ -106,7 +106,6 @@ from __future__ import annotations
 
 import math
 from collections import deque
-
 from collections.abc import Iterable
 
 from mavhelm.core.geodesy import wrap_degrees
