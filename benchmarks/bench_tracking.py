@@ -91,7 +91,7 @@ import math
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -489,6 +489,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="bench: each leg from the first point within 2 m of it and 10 m "
                              "along; issue: from 10 m along whatever the offset (counts the "
                              "swing after each turn), both to 5 m before the end")
+    parser.add_argument("--lead-time", type=float, default=None,
+                        help="fly the tasks' LeadTime (s) instead of the helm's Lead")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "
@@ -509,6 +511,9 @@ def main(argv: list[str] | None = None) -> int:
                     f"{args.stream_hz or helm.stream_hz:g} Hz", helm.yaw_kp, helm.lead,
                     helm.max_turn_rate, args.app_tick or helm.app_tick,
                     args.stream_hz or helm.stream_hz)
+    if args.lead_time is not None:
+        helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
+                       lead_time=args.lead_time)
     binary = ardupilot_binary()
     settle_xte = SETTLE_XTE if args.window == "bench" else math.inf
     rows: list[tuple[str, str, Figures]] = []
