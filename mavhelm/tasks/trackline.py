@@ -2,7 +2,7 @@
 that fly chains of track lines (XYPattern, Orbit, Survey).
 
 The control law, in one line (the vehicle's heading then follows it through the helm's heading
-PID, spec 1.4.1):
+PID, spec 1.4.1; Lead is LeadTime × V unless given):
 
     desired heading = line bearing − atan(XTE / Lead) − c,    dc/dt = XTE · V / (3 · Lead²)
 
@@ -19,13 +19,19 @@ vehicle onto the line with a time constant of Lead / V and arrives on the line's
 How short a Lead can be is set by the heading loop. Taking that loop as a first-order lag of
 gain Kψ = YAW_PID_KP × MaxTurnRate / MAXRUDDER (per second: degrees per second of turn per
 degree of heading error, KD neglected), the cross-track loop near the line is
-``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V). The defaults (Kψ =
-0.5 × 45 / 20 = 1.1 /s) need Lead ≈ 5 m at 2 m/s for ζ ≈ 0.8, which is the default Lead; a
-faster heading loop allows a shorter Lead and holds the line tighter. The first-order model
-ignores the loop's delays (the helm's tick, telemetry, GPS latency), so take the Lead a little
-longer than it says: ``benchmarks/bench_tracking.py`` flies MaxTurnRate 90 with YAW_PID_KP 0.75
-(Kψ 3.4 /s) and Lead 3; with Kψ 4.5 /s and Lead 2 one leg in sixteen swung ±0.8 m for 15 s
-after its turn.
+``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V): it depends on the *lead
+time* Lead / V, not on the Lead. So the default Lead is a lead time, ``LeadTime`` seconds of
+the speed over the ground (measured from the fixes, ``Speedometer``; at least 1 m), and one
+default fits every speed; a ``Lead`` given in metres is kept whatever the speed (``mavhelm
+tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
+(Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
+damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3) and hold every
+model at 2 and 5 m/s (``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
+(Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
+Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
+(the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
+is anticipated (below), and the time a vehicle of turn rate ω needs to turn 90° is about
+1 / ω plus its delay: 1.5 s suits the SITL boat at 5 m/s (it turns about 50°/s).
 
 Why the integral. Pure pursuit alone leaves a steady offset whenever something pushes the
 vehicle sideways or its heading is not what it believes — a cross current, wind and leeway (at
@@ -74,23 +80,24 @@ cannot fix, an *offset held*:
 In the simulator, 0.3 m/s of current across the line leaves pure pursuit 0.75 m off (RMS);
 with the integral it holds 0.2 m, as in still water.
 
-The turn onto a line. A route that knows its next line turns in to it as a skipper does:
-Survey leaves the line onto each leg's start ``RouteTask.turn_in`` before it (Lead ·
-tan(Δ/2) for a turn of Δ, at most one Lead and half of either line), so the carrot is already
-on the leg as far ahead as the vehicle is off it and pure pursuit brings it out of the turn on
-the leg rather than past it; a leg's own end is still flown to (its capture is 1 m), so legs
-are surveyed whole. On the real SITL motorboat at the defaults (calm, WP_SPEED 2, XTE from
-10 m along each leg to 5 m before its end) this took the Survey from 0.24 m RMS and 1.64 m max
-to 0.07 and 0.48 m. A chain of separate TrackLine tasks cannot do this (a task does not know
-the next one's line); its Radius is its turn-in.
+The turn onto a line. A route that knows its next line turns in to it as a skipper does: it
+leaves each line ``RouteTask.turn_in`` before its end (Lead · tan(Δ/2) for a turn of Δ, at
+most one Lead and half of either line), so the carrot is already on the next line as far
+ahead as the vehicle is off it and pure pursuit brings it out of the turn on the line rather
+than past it. Survey turns in at every corner, a leg's end too: flying to a leg's end left
+the vehicle swinging across the short join onto the next leg (at 5 m/s on the real SITL
+motorboat, 1.4 m max against 0.5 m). A chain of TrackLine tasks does the same: when exactly
+one TrackLine starts on this one's FinishFlag and continues from its P2 (its P1 given, within
+``CHAIN_GAP``), the helm tells this one the next line at load (``link_track_lines``) and its
+capture radius becomes at least the turn-in; at the old defaults, each chained line flown to
+its Radius (1 m) swung 1.0–1.25 m after every corner.
 
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
 a Survey from 0.11 to 0.07 m RMS on the real SITL; at the tuned settings it made it no
 better; and it needs another rule for reaching a corner: cutting a turn of more than 90°, the
-vehicle never passes P2 along the line (in the kinematic unit test it circled P2), and legs
-would no longer be flown to their ends. A 20 Hz AppTick with 20 Hz telemetry measured no
-better than 10 Hz.
+vehicle never passes P2 along the line (in the kinematic unit test it circled P2). A 20 Hz
+AppTick with 20 Hz telemetry measured no better than 10 Hz.
 
 Every tick the task posts ``<NAME>_XTE``, the signed cross-track error in metres (positive: the
 vehicle is to starboard of the line, looking from P1 to P2).
