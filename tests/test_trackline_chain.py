@@ -8,7 +8,13 @@ import math
 import pytest
 
 from mavhelm.tasks.registry import build_task
-from mavhelm.tasks.trackline import DEFAULT_LEAD_TIME, MIN_LEAD, TrackLine, link_track_lines
+from mavhelm.tasks.trackline import (
+    DEFAULT_LEAD_TIME,
+    MIN_LEAD,
+    TURN_LAG_S,
+    TrackLine,
+    link_track_lines,
+)
 from tests.support.task_rig import TBlock, nav_at
 
 
@@ -50,9 +56,10 @@ def test_a_chained_trackline_is_left_a_turn_in_before_its_end(tblock: TBlock) ->
     link_track_lines([first, then])
     first.start(0.0)
     x = drive_east(first, 100.0)
-    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn: Lead · tan(45°) = 3 m before the corner
+    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn: Lead · tan(45°) = 3 m before the corner,
+    # and the way run in the heading loop's lag, TURN_LAG_S × 2 m/s
     lead = DEFAULT_LEAD_TIME * 2.0
-    assert x == pytest.approx(100.0 - lead, abs=0.25)
+    assert x == pytest.approx(100.0 - lead - TURN_LAG_S * 2.0, abs=0.25)
 
 
 @pytest.mark.parametrize("p1, flags", [("100,5", ("Next",)), ("100,0", ("Next", "Next2"))])
