@@ -491,6 +491,7 @@ def main(argv: list[str] | None = None) -> int:
                              "swing after each turn), both to 5 m before the end")
     parser.add_argument("--lead-time", type=float, default=None,
                         help="fly the tasks' LeadTime (s) instead of the helm's Lead")
+    parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "
@@ -514,6 +515,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.lead_time is not None:
         helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
                        lead_time=args.lead_time)
+    if args.yaw_kd is not None:
+        helm = replace(helm, name=f"{helm.name}; YAW_PID_KD {args.yaw_kd:g}", yaw_kd=args.yaw_kd)
     binary = ardupilot_binary()
     settle_xte = SETTLE_XTE if args.window == "bench" else math.inf
     rows: list[tuple[str, str, Figures]] = []

@@ -135,26 +135,31 @@ GAIN_PARAMS: tuple[Param, ...] = (
 """The pHelm block's controller settings, shared by every task (one ``HelmGains``)."""
 
 
+def _default(attr: str) -> float:
+    """The declared default of one of ``GAIN_PARAMS`` (by attribute), so it is said once."""
+    return float(next(p.default for p in GAIN_PARAMS if p.attribute == attr))
+
+
 @dataclass
 class HelmGains:
     """Controller gains and actuator limits from the pHelm block, shared by every task."""
 
-    yaw_kp: float = 0.75
-    yaw_kd: float = 0.2
-    yaw_ki: float = 0.0
-    yaw_integral_limit: float = 2.0
-    z_to_pitch_kp: float = 0.5
-    z_to_pitch_kd: float = 0.0
-    z_to_pitch_ki: float = 0.0
-    z_to_pitch_integral_limit: float = 0.0
-    pitch_kp: float = 0.5
-    pitch_kd: float = 0.0
-    pitch_ki: float = 0.0
-    pitch_integral_limit: float = 0.0
-    max_rudder: float = 20.0
-    max_thrust: float = 100.0
-    max_elevator: float = 30.0
-    max_pitch: float = 10.0
+    yaw_kp: float = _default("yaw_kp")
+    yaw_kd: float = _default("yaw_kd")
+    yaw_ki: float = _default("yaw_ki")
+    yaw_integral_limit: float = _default("yaw_integral_limit")
+    z_to_pitch_kp: float = _default("z_to_pitch_kp")
+    z_to_pitch_kd: float = _default("z_to_pitch_kd")
+    z_to_pitch_ki: float = _default("z_to_pitch_ki")
+    z_to_pitch_integral_limit: float = _default("z_to_pitch_integral_limit")
+    pitch_kp: float = _default("pitch_kp")
+    pitch_kd: float = _default("pitch_kd")
+    pitch_ki: float = _default("pitch_ki")
+    pitch_integral_limit: float = _default("pitch_integral_limit")
+    max_rudder: float = _default("max_rudder")
+    max_thrust: float = _default("max_thrust")
+    max_elevator: float = _default("max_elevator")
+    max_pitch: float = _default("max_pitch")
 
     @classmethod
     def from_values(cls, values: dict[str, object]) -> HelmGains:
