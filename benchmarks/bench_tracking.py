@@ -468,6 +468,23 @@ def real_rows(binary: Path, logs: Path, args: argparse.Namespace, helm: Helm, on
     return rows
 
 
+def flown_helm(args: argparse.Namespace) -> Helm:
+    """The helm settings the command line asks for: the tuned or the product's defaults,
+    with any setting overridden."""
+    helm = DEFAULTS if args.helm_defaults else TUNED
+    if args.app_tick is not None or args.stream_hz is not None:
+        helm = replace(helm, name=helm.name + f", AppTick {args.app_tick or helm.app_tick:g}, "
+                       f"streams {args.stream_hz or helm.stream_hz:g} Hz",
+                       app_tick=args.app_tick or helm.app_tick,
+                       stream_hz=args.stream_hz or helm.stream_hz)
+    if args.lead_time is not None:
+        helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
+                       lead_time=args.lead_time)
+    if args.yaw_kd is not None:
+        helm = replace(helm, name=f"{helm.name}; YAW_PID_KD {args.yaw_kd:g}", yaw_kd=args.yaw_kd)
+    return helm
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", default="calm,wind,sim,exact",
@@ -506,17 +523,7 @@ def main(argv: list[str] | None = None) -> int:
     unknown = (only - {"calm", "wind", "sim", "exact"}) | (set(kinds) - set(TASKS))
     if unknown:
         parser.error(f"unknown: {', '.join(sorted(unknown))}")
-    helm = DEFAULTS if args.helm_defaults else TUNED
-    if args.app_tick is not None or args.stream_hz is not None:
-        helm = Helm(helm.name + f", AppTick {args.app_tick or helm.app_tick:g}, streams "
-                    f"{args.stream_hz or helm.stream_hz:g} Hz", helm.yaw_kp, helm.lead,
-                    helm.max_turn_rate, args.app_tick or helm.app_tick,
-                    args.stream_hz or helm.stream_hz)
-    if args.lead_time is not None:
-        helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
-                       lead_time=args.lead_time)
-    if args.yaw_kd is not None:
-        helm = replace(helm, name=f"{helm.name}; YAW_PID_KD {args.yaw_kd:g}", yaw_kd=args.yaw_kd)
+    helm = flown_helm(args)
     binary = ardupilot_binary()
     settle_xte = SETTLE_XTE if args.window == "bench" else math.inf
     rows: list[tuple[str, str, Figures]] = []

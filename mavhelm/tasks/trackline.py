@@ -471,21 +471,21 @@ def link_track_lines(tasks: Iterable[Task]) -> None:
     this one knows the next line and turns in to it as a route does (``RouteTask.turn_in``),
     and the two share their measure of the speed."""
     lines = [t for t in tasks if isinstance(t, TrackLine)]
-    links: list[tuple[TrackLine, TrackLine]] = []
-    for first in lines:
-        finish = set(first.finish_flags)
-        then = [t for t in lines if t is not first and finish & set(t.start_flags)
-                and t.p1 is not None
-                and distance((t.p1[0], t.p1[1]), (first.p2[0], first.p2[1])) < CHAIN_GAP]
-        if len(then) == 1:
-            first.next_point = (then[0].p2[0], then[0].p2[1])
-            links.append((first, then[0]))
+    links = [(first, nexts[0]) for first in lines
+             if len(nexts := _continuations(first, lines)) == 1]
+    for first, then in links:
+        first.next_point = (then.p2[0], then.p2[1])
     for _ in range(len(links)):
-        changed = False
-        for first, then in links:
-            shared = first.speed_source()
-            if then.speedometer is not shared:
-                then.speedometer = shared
-                changed = True
+        changed = [then for first, then in links if then.speedometer is not first.speed_source()]
         if not changed:
             break
+        for first, then in links:
+            then.speedometer = first.speed_source()
+
+
+def _continuations(first: TrackLine, lines: list[TrackLine]) -> list[TrackLine]:
+    """The TrackLines that ``first``'s FinishFlag starts and that begin at its P2."""
+    finish = set(first.finish_flags)
+    end = (first.p2[0], first.p2[1])
+    return [t for t in lines if t is not first and finish & set(t.start_flags)
+            and t.p1 is not None and distance((t.p1[0], t.p1[1]), end) < CHAIN_GAP]
