@@ -56,10 +56,19 @@ def test_a_chained_trackline_is_left_a_turn_in_before_its_end(tblock: TBlock) ->
     link_track_lines([first, then])
     first.start(0.0)
     x = drive_east(first, 100.0)
-    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn: Lead · tan(45°) = 3 m before the corner,
-    # and the way run in the heading loop's lag, TURN_LAG_S × 2 m/s
+    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn: Lead · tan(45°) = 3 m before the corner
+    # (onto a shorter line: no more)
     lead = DEFAULT_LEAD_TIME * 2.0
-    assert x == pytest.approx(100.0 - lead - TURN_LAG_S * 2.0, abs=0.25)
+    assert x == pytest.approx(100.0 - lead, abs=0.25)
+
+
+def test_onto_a_longer_line_the_turn_is_asked_for_a_lag_earlier(tblock: TBlock) -> None:
+    first = line(tblock, "A", "0,0", "100,0", ("FinishFlag", "Next"))
+    then = line(tblock, "B", "100,0", "100,-500", ("StartFlag", "Next"))
+    link_track_lines([first, then])
+    first.start(0.0)
+    x = drive_east(first, 100.0)
+    assert x == pytest.approx(100.0 - DEFAULT_LEAD_TIME * 2.0 - TURN_LAG_S * 2.0, abs=0.25)
 
 
 @pytest.mark.parametrize("p1, flags", [("100,5", ("Next",)), ("100,0", ("Next", "Next2"))])

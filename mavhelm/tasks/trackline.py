@@ -146,7 +146,7 @@ LEAD_PARAMS = (
 
 TURN_LAG_S = 0.5
 """How long a turn takes to start after the helm asks for it (the helm's tick, telemetry, the
-vehicle's yaw response: 0.3–0.5 s on the real SITL motorboat); the turn onto the next line is
+vehicle's yaw response: 0.3–0.5 s on the real SITL motorboat); the turn onto a longer line is
 asked for this much earlier (``RouteTask.turn_in``)."""
 
 SPEED_BASELINE_S = 1.0
@@ -357,9 +357,10 @@ class RouteTask(SteeringTask):
         in before a corner so as to come out of the turn on the new line rather than swing
         past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
         the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
-        once), at most one Lead, plus the way run during the heading loop's lag
-        (``TURN_LAG_S`` of the speed, times sin Δ); at most half of either line. 0 at the
-        last target."""
+        once), at most one Lead; onto a longer line, also the way run during the heading
+        loop's lag (``TURN_LAG_S`` of the speed, times sin Δ), so that what the turn cannot
+        avoid lands on the shorter line (a survey's join, not its leg); at most half of
+        either line. 0 at the last target."""
         p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
@@ -369,9 +370,11 @@ class RouteTask(SteeringTask):
             return 0.0
         lead = self.current_lead()
         turn = math.radians(min(turn, 90.0))
-        ahead = min(lead * math.tan(turn / 2.0), lead) \
-            + TURN_LAG_S * (self.speed_source().speed or 0.0) * math.sin(turn)
-        return min(ahead, 0.5 * distance(p2, after), 0.5 * follower.length)
+        ahead = min(lead * math.tan(turn / 2.0), lead)
+        following = distance(p2, after)
+        if following > follower.length:
+            ahead += TURN_LAG_S * (self.speed_source().speed or 0.0) * math.sin(turn)
+        return min(ahead, 0.5 * following, 0.5 * follower.length)
 
     # ---- driving -------------------------------------------------------------------------
 
