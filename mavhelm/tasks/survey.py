@@ -9,7 +9,7 @@ vehicle first runs a line from where it is when the task goes active to the star
 then each leg, and each joining segment from the end of one leg to the start of the next, is
 held as a TrackLine (carrot ``Lead`` metres ahead, bounded cross-track integral, see
 ``trackline``). Each corner, a leg's end as well as its start, is turned in to: the line is
-left a turn-in before it (``RouteTask.turn_in``, at most one Lead: LeadTime seconds of the
+left a turn-in before it (``RouteTask.turn_in``: about one Lead, LeadTime seconds of the
 speed), else within 1 m of it or once past it along the line. The task posts ``<NAME>_LEG``
 (index from 0) as each leg begins and ``<NAME>_XTE`` every tick, and completes at the end of
 the last leg.
@@ -79,8 +79,8 @@ class Survey(RouteTask):
     def capture_radius(self, k: int) -> float:
         """Every corner is turned in to, a leg's end as well as its start: flown to, a leg's
         end leaves the vehicle to swing past the short join and onto the next leg swinging
-        (at 5 m/s on the real SITL motorboat 1.4 m max on the legs, against 0.45 m turning
-        in at every corner)."""
+        (at 5 m/s on the real SITL motorboat 1.4 m max on the legs, against 0.4–0.8 m
+        turning in at every corner)."""
         return max(CAPTURE, self.turn_in(k))
 
     def begin(self, k: int, now: float) -> None:

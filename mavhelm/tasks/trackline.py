@@ -25,8 +25,9 @@ the speed over the ground (measured from the fixes, ``Speedometer``; at least 1 
 default fits every speed; a ``Lead`` given in metres is kept whatever the speed (``mavhelm
 tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
 (Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
-damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3) and hold every
-model at 2 and 5 m/s (``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
+damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
+model within 0.15 m at 2 m/s, and at 5 m/s swing up to about 0.8 m after a corner
+(``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
 (Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
 Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
 (the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
@@ -84,13 +85,18 @@ The turn onto a line. A route that knows its next line turns in to it as a skipp
 leaves each line ``RouteTask.turn_in`` before its end (Lead · tan(Δ/2) for a turn of Δ, at
 most one Lead and half of either line), so the carrot is already on the next line as far
 ahead as the vehicle is off it and pure pursuit brings it out of the turn on the line rather
-than past it. Survey turns in at every corner, a leg's end too: flying to a leg's end left
-the vehicle swinging across the short join onto the next leg (at 5 m/s on the real SITL
-motorboat, 1.4 m max against 0.5 m). A chain of TrackLine tasks does the same: when exactly
-one TrackLine starts on this one's FinishFlag and continues from its P2 (its P1 given, within
-``CHAIN_GAP``), the helm tells this one the next line at load (``link_track_lines``) and its
-capture radius becomes at least the turn-in; at the old defaults, each chained line flown to
-its Radius (1 m) swung 1.0–1.25 m after every corner.
+than past it. Onto a longer line the turn is also asked for the heading loop's lag earlier
+(``TURN_LAG_S`` of the speed): what a turn cannot avoid then lands on the shorter line, a
+survey's join rather than its leg (at 5 m/s on the real SITL motorboat, with the lag at every
+corner the legs' ends swung 0.6–0.7 m; without it the swing onto each leg was 0.5–1.1 m; with
+it onto the longer line only, 0.2–0.8 m, the vehicle then still closing on the leg 10 m
+along it). Survey turns in at every corner, a leg's end too: flying to a leg's end left the
+vehicle swinging across the short join onto the next leg (at 5 m/s, 1.4 m max on the legs). A
+chain of TrackLine tasks does the same: when exactly one TrackLine starts on this one's
+FinishFlag and continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm tells this
+one the next line at load (``link_track_lines``) and its capture radius becomes at least the
+turn-in; at the old defaults, each chained line flown to its Radius (1 m) swung 1.0–1.25 m
+after every corner.
 
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
