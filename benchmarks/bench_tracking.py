@@ -31,52 +31,55 @@ the line and at least 10 m along it, to 5 m before the leg's end; RMS and max pe
 all four legs. Survey time: from the truth passing the start of leg 0 to its reaching the end
 of leg 3 (1 m short: the capture).
 
-The helm settings flown (``TUNED``), chosen by measuring against the real SITL (the control
-law, and why these, in ``mavhelm/tasks/trackline.py``):
+The helm settings flown by default (``TUNED``), chosen by measuring against the real SITL (the
+control law, and why these, in ``mavhelm/tasks/trackline.py``):
 
-- iMAVLink ``MaxTurnRate = 90`` (default 45) and pHelm ``YAW_PID_KP = 0.75`` (default 0.5): a
-  heading loop three times as fast as the defaults' (0.75 × 90 / 20 = 3.4 deg/s of turn per
-  degree of heading error, against 1.1), with the authority to turn at twice the rate, so a
-  90° turn onto a line swings out half as far;
-- ``Lead = 3`` on the tasks (default 5): the carrot as close as that loop keeps well damped
-  (the pursuit's time constant Lead / speed = 1.5 s at 2 m/s).
+- iMAVLink ``MaxTurnRate = 90`` and pHelm ``YAW_PID_KP = 0.75``, the product's defaults: a
+  heading loop of 0.75 × 90 / 20 = 3.4 deg/s of turn per degree of heading error;
+- ``Lead = 3`` on the tasks: the pursuit's time constant Lead / speed = 1.5 s at 2 m/s, which
+  the product's default ``LeadTime = 1.5`` s gives at any speed.
 
 Everything else is the product's defaults: AppTick 10, the default telemetry rates, GPS first
 in pNav. Measured and not taken: AppTick 20 with ATTITUDE, GPS_RAW_INT and
 GLOBAL_POSITION_INT at 20 Hz (``--app-tick 20 --stream-hz 20``: within 0.01 m of AppTick 10);
 the autopilot's EKF position ahead of the GPS (0.01 m worse); a faster loop still (YAW_PID_KP
 1.0 with MaxTurnRate 90 swung ±0.8 m for 15 s on one leg of four runs: the 10 Hz loop's delay
-is close).
+is close); MaxTurnRate 45, YAW_PID_KP 0.5 with Lead 5 (1.0–1.3 m after every corner at
+2 m/s); at 5 m/s, LeadTime 2 s (no better: slower to close on a leg after its corner) and
+YAW_PID_KD 0.4 (worse: 1.1–1.5 m).
 
-``--helm-defaults`` flies the product's defaults instead (MaxTurnRate 45, YAW_PID_KP 0.5,
-Lead 5).
+``--helm-defaults`` flies the product's defaults instead, read from their declarations (no
+Lead: LeadTime × speed); ``--lead-time`` and ``--yaw-kd`` override those.
 
 ``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
 box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
 (motorboat, motorboat-skid, rover, rover-skid) and ``--wp-speed`` pick the vehicle;
 ``--window issue`` measures each leg from 10 m along it whatever the offset (so the swing after
 the turn onto it counts) to 5 m before its end. Measured so (real SITL, one run each, XTE RMS /
-max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2):
+max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2; the survey takes 223 s at
+WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
 
     model           WP_SPEED weather  helm      Survey       TrackLines
-    motorboat       2        calm     defaults  0.09 / 0.40  0.12 / 1.09
-    motorboat       2        calm     tuned     0.02 / 0.13  0.02 / 0.15
-    motorboat       2        wind     defaults  0.08 / 0.52  0.14 / 1.15
-    motorboat       2        wind     tuned     0.04 / 0.33  0.05 / 0.36
-    motorboat       5        calm     defaults  0.21 / 1.27  0.39 / 2.48
-    motorboat       5        calm     tuned     0.09 / 0.58  0.48 / 2.42
-    motorboat-skid  2        calm     defaults  0.06 / 0.36  0.16 / 1.25
-    motorboat-skid  2        calm     tuned     0.02 / 0.18  0.03 / 0.30
-    rover           2        calm     defaults  0.06 / 0.39  0.12 / 1.08
-    rover           2        calm     tuned     0.02 / 0.21  0.04 / 0.39
-    rover-skid      2        calm     defaults  0.06 / 0.36  0.12 / 1.01
-    rover-skid      2        calm     tuned     0.02 / 0.20  0.02 / 0.19
-
-(``tuned``: by ``mavhelm tune`` in that run; a tune's gains vary a little from run to run.
-At 5 m/s the defaults' Survey measured 1.27–1.39 m max in three runs, and 14.6 m on its last
-leg in a fourth, not understood.)
-The chained TrackLines (Radius 1 m) cannot turn in to the next line, so the swing after each
-turn stays in their maximum; the Survey turns in (``mavhelm.tasks.trackline``).
+    motorboat       2        calm     defaults  0.01 / 0.06  0.01 / 0.06
+    motorboat       2        wind     defaults  0.02 / 0.15  0.02 / 0.12
+    motorboat       5        calm     defaults  0.06 / 0.44  0.07 / 0.55
+    motorboat       5        wind     defaults  0.10 / 0.77  0.06 / 0.45
+    motorboat-skid  2        calm     defaults  0.01 / 0.05  0.01 / 0.06
+    motorboat-skid  2        wind     defaults  0.02 / 0.13  0.02 / 0.13
+    motorboat-skid  5        calm     defaults  0.20 / 1.06  0.11 / 0.44
+    motorboat-skid  5        wind     defaults  0.11 / 0.41  0.11 / 0.52
+    rover           2        calm     defaults  0.01 / 0.05  0.01 / 0.08
+    rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
+    rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
+    rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
+TUNEDROWS
+At WP_SPEED 2 the defaults hold every model within 0.15 m. At 5 m/s what is left is the
+corner onto each leg: the Survey and the chained TrackLines turn in a Lead (7.5 m) and the
+heading loop's lag before it, and the vehicle is then either still closing on the leg at
+10 m along it or has swung 0.4–1 m past it (one run to the next differs by as much); the
+motorboat-skid at 5 m/s also hunts ±0.5 m mid-leg (its yaw at speed wants a gentler loop than
+the defaults', which ``mavhelm tune`` gives it). Run to run, a row's maximum varies by
+about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s.
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
@@ -493,8 +496,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tasks", default="Survey,TrackLines",
                         help="missions, of Survey, TrackLines; default both")
     parser.add_argument("--helm-defaults", action="store_true",
-                        help="fly the product's defaults (MaxTurnRate 45, YAW_PID_KP 0.5, "
-                             "Lead 5), not the tuned settings")
+                        help="fly the product's defaults (MaxTurnRate 90, YAW_PID_KP 0.75, "
+                             "LeadTime 1.5 s), not the tuned settings")
     parser.add_argument("--tune", action="store_true",
                         help="real SITL: run mavhelm tune first (per model and condition) "
                              "and fly the gains it writes")
