@@ -72,13 +72,25 @@ WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
     rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
     rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
     rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
-TUNEDROWS
+    motorboat       2        calm     tuned     0.02 / 0.24  0.02 / 0.11
+    motorboat       2        wind     tuned     0.03 / 0.18  0.02 / 0.17
+    motorboat       5        calm     tuned     0.20 / 1.20  0.20 / 1.23
+    motorboat-skid  2        calm     tuned     0.07 / 0.61  0.02 / 0.12
+    motorboat-skid  5        calm     tuned     0.58 / 1.69  0.54 / 1.80
+    rover           2        calm     tuned     0.02 / 0.14  0.02 / 0.10
+    rover           5        calm     tuned     0.16 / 0.85  0.15 / 0.77
+    rover-skid      2        calm     tuned     0.02 / 0.18  0.02 / 0.19
+    rover-skid      5        calm     tuned     0.13 / 0.60  0.09 / 0.54
+
+(``tuned``: by ``mavhelm tune`` in that run, a Lead in metres for the survey's speed; a tune's
+gains vary a little from run to run: MaxTurnRate 53–104, YAW_PID_KP 0.41–0.57, KD 0.25–0.34,
+a heading loop of 1.7–2.5 /s, slower than the defaults' 3.4 /s.)
 At WP_SPEED 2 the defaults hold every model within 0.15 m. At 5 m/s what is left is the
 corner onto each leg: the Survey and the chained TrackLines turn in a Lead (7.5 m) and the
 heading loop's lag before it, and the vehicle is then either still closing on the leg at
 10 m along it or has swung 0.4–1 m past it (one run to the next differs by as much); the
 motorboat-skid at 5 m/s also hunts ±0.5 m mid-leg (its yaw at speed wants a gentler loop than
-the defaults', which ``mavhelm tune`` gives it). Run to run, a row's maximum varies by
+the defaults'; its tuned loop did worse). Run to run, a row's maximum varies by
 about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s.
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
