@@ -84,7 +84,8 @@ WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
 
 (``tuned``: by ``mavhelm tune`` in that run, a Lead in metres for the survey's speed; a tune's
 gains vary a little from run to run: MaxTurnRate 53–104, YAW_PID_KP 0.41–0.57, KD 0.25–0.34,
-a heading loop of 1.7–2.5 /s, slower than the defaults' 3.4 /s.)
+a heading loop of 1.2–2.5 /s, slower than the defaults' 3.4 /s.)
+
 At WP_SPEED 2 the defaults hold every model within 0.15 m. At 5 m/s what is left is the
 corner onto each leg: the Survey and the chained TrackLines turn in a Lead (7.5 m) and the
 heading loop's lag before it, and the vehicle is then either still closing on the leg at
