@@ -45,11 +45,13 @@ GLOBAL_POSITION_INT at 20 Hz (``--app-tick 20 --stream-hz 20``: within 0.01 m of
 the autopilot's EKF position ahead of the GPS (0.01 m worse); a faster loop still (YAW_PID_KP
 1.0 with MaxTurnRate 90 swung ±0.8 m for 15 s on one leg of four runs: the 10 Hz loop's delay
 is close); MaxTurnRate 45, YAW_PID_KP 0.5 with Lead 5 (1.0–1.3 m after every corner at
-2 m/s); at 5 m/s, LeadTime 2 s (no better: slower to close on a leg after its corner) and
-YAW_PID_KD 0.4 (worse: 1.1–1.5 m).
+2 m/s); at 5 m/s (one run each, calm and wind): LeadTime 2 s (motorboat 0.3–1.1 m,
+motorboat-skid 0.8–4.2 m), LeadTime 1.25 s (motorboat 0.29–0.54 m, but motorboat-skid 1.2–3.3
+m, hunting), YAW_PID_KD 0.4 (motorboat 1.1–1.5 m), YAW_PID_KP 0.5 (motorboat-skid 0.5–1.4 m),
+and the turn-in's lag term at every corner, or at none (0.4–1.1 m).
 
 ``--helm-defaults`` flies the product's defaults instead, read from their declarations (no
-Lead: LeadTime × speed); ``--lead-time`` and ``--yaw-kd`` override those.
+Lead: LeadTime × speed); ``--lead-time``, ``--yaw-kp`` and ``--yaw-kd`` override those.
 
 ``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
 box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
@@ -496,8 +498,10 @@ def flown_helm(args: argparse.Namespace) -> Helm:
     if args.lead_time is not None:
         helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
                        lead_time=args.lead_time)
-    if args.yaw_kd is not None:
-        helm = replace(helm, name=f"{helm.name}; YAW_PID_KD {args.yaw_kd:g}", yaw_kd=args.yaw_kd)
+    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD")):
+        if getattr(args, key) is not None:
+            helm = replace(helm, name=f"{helm.name}; {attr} {getattr(args, key):g}",
+                           **{key: getattr(args, key)})
     return helm
 
 
@@ -524,6 +528,7 @@ def main(argv: list[str] | None = None) -> int:
                              "swing after each turn), both to 5 m before the end")
     parser.add_argument("--lead-time", type=float, default=None,
                         help="fly the tasks' LeadTime (s) instead of the helm's Lead")
+    parser.add_argument("--yaw-kp", type=float, default=None, help="fly this YAW_PID_KP")
     parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
