@@ -26,7 +26,7 @@ default fits every speed; a ``Lead`` given in metres is kept whatever the speed 
 tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
 (Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
 damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
-model within 0.15 m at 2 m/s, and at 5 m/s swing up to about 0.8 m after a corner
+model within 0.15 m at 2 m/s, and at 5 m/s swing 0.2–1.1 m after a corner
 (``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
 (Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
 Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
