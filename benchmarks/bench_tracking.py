@@ -31,52 +31,70 @@ the line and at least 10 m along it, to 5 m before the leg's end; RMS and max pe
 all four legs. Survey time: from the truth passing the start of leg 0 to its reaching the end
 of leg 3 (1 m short: the capture).
 
-The helm settings flown (``TUNED``), chosen by measuring against the real SITL (the control
-law, and why these, in ``mavhelm/tasks/trackline.py``):
+The helm settings flown by default (``TUNED``), chosen by measuring against the real SITL (the
+control law, and why these, in ``mavhelm/tasks/trackline.py``):
 
-- iMAVLink ``MaxTurnRate = 90`` (default 45) and pHelm ``YAW_PID_KP = 0.75`` (default 0.5): a
-  heading loop three times as fast as the defaults' (0.75 × 90 / 20 = 3.4 deg/s of turn per
-  degree of heading error, against 1.1), with the authority to turn at twice the rate, so a
-  90° turn onto a line swings out half as far;
-- ``Lead = 3`` on the tasks (default 5): the carrot as close as that loop keeps well damped
-  (the pursuit's time constant Lead / speed = 1.5 s at 2 m/s).
+- iMAVLink ``MaxTurnRate = 90`` and pHelm ``YAW_PID_KP = 0.75``, the product's defaults: a
+  heading loop of 0.75 × 90 / 20 = 3.4 deg/s of turn per degree of heading error;
+- ``Lead = 3`` on the tasks: the pursuit's time constant Lead / speed = 1.5 s at 2 m/s, which
+  the product's default ``LeadTime = 1.5`` s gives at any speed.
 
 Everything else is the product's defaults: AppTick 10, the default telemetry rates, GPS first
 in pNav. Measured and not taken: AppTick 20 with ATTITUDE, GPS_RAW_INT and
 GLOBAL_POSITION_INT at 20 Hz (``--app-tick 20 --stream-hz 20``: within 0.01 m of AppTick 10);
 the autopilot's EKF position ahead of the GPS (0.01 m worse); a faster loop still (YAW_PID_KP
 1.0 with MaxTurnRate 90 swung ±0.8 m for 15 s on one leg of four runs: the 10 Hz loop's delay
-is close).
+is close); MaxTurnRate 45, YAW_PID_KP 0.5 with Lead 5 (1.0–1.3 m after every corner at
+2 m/s); at 5 m/s (one run each, calm and wind): LeadTime 2 s (motorboat 0.3–1.1 m,
+motorboat-skid 0.8–4.2 m), LeadTime 1.25 s (motorboat 0.29–0.54 m, but motorboat-skid 1.2–3.3
+m, hunting), YAW_PID_KD 0.4 (motorboat 1.1–1.5 m), YAW_PID_KP 0.5 (motorboat-skid 0.5–1.4 m),
+and the turn-in's lag term at every corner, or at none (0.4–1.1 m).
 
-``--helm-defaults`` flies the product's defaults instead (MaxTurnRate 45, YAW_PID_KP 0.5,
-Lead 5).
+``--helm-defaults`` flies the product's defaults instead, read from their declarations (no
+Lead: LeadTime × speed); ``--lead-time``, ``--yaw-kp`` and ``--yaw-kd`` override those.
 
 ``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
 box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
 (motorboat, motorboat-skid, rover, rover-skid) and ``--wp-speed`` pick the vehicle;
 ``--window issue`` measures each leg from 10 m along it whatever the offset (so the swing after
 the turn onto it counts) to 5 m before its end. Measured so (real SITL, one run each, XTE RMS /
-max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2):
+max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2; the survey takes 223 s at
+WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
 
     model           WP_SPEED weather  helm      Survey       TrackLines
-    motorboat       2        calm     defaults  0.09 / 0.40  0.12 / 1.09
-    motorboat       2        calm     tuned     0.02 / 0.13  0.02 / 0.15
-    motorboat       2        wind     defaults  0.08 / 0.52  0.14 / 1.15
-    motorboat       2        wind     tuned     0.04 / 0.33  0.05 / 0.36
-    motorboat       5        calm     defaults  0.21 / 1.27  0.39 / 2.48
-    motorboat       5        calm     tuned     0.09 / 0.58  0.48 / 2.42
-    motorboat-skid  2        calm     defaults  0.06 / 0.36  0.16 / 1.25
-    motorboat-skid  2        calm     tuned     0.02 / 0.18  0.03 / 0.30
-    rover           2        calm     defaults  0.06 / 0.39  0.12 / 1.08
-    rover           2        calm     tuned     0.02 / 0.21  0.04 / 0.39
-    rover-skid      2        calm     defaults  0.06 / 0.36  0.12 / 1.01
-    rover-skid      2        calm     tuned     0.02 / 0.20  0.02 / 0.19
+    motorboat       2        calm     defaults  0.01 / 0.06  0.01 / 0.06
+    motorboat       2        wind     defaults  0.02 / 0.15  0.02 / 0.12
+    motorboat       5        calm     defaults  0.06 / 0.44  0.07 / 0.55
+    motorboat       5        wind     defaults  0.10 / 0.77  0.06 / 0.45
+    motorboat-skid  2        calm     defaults  0.01 / 0.05  0.01 / 0.06
+    motorboat-skid  2        wind     defaults  0.02 / 0.13  0.02 / 0.13
+    motorboat-skid  5        calm     defaults  0.20 / 1.06  0.11 / 0.44
+    motorboat-skid  5        wind     defaults  0.11 / 0.41  0.11 / 0.52
+    rover           2        calm     defaults  0.01 / 0.05  0.01 / 0.08
+    rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
+    rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
+    rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
+    motorboat       2        calm     tuned     0.02 / 0.24  0.02 / 0.11
+    motorboat       2        wind     tuned     0.03 / 0.18  0.02 / 0.17
+    motorboat       5        calm     tuned     0.20 / 1.20  0.20 / 1.23
+    motorboat-skid  2        calm     tuned     0.07 / 0.61  0.02 / 0.12
+    motorboat-skid  5        calm     tuned     0.58 / 1.69  0.54 / 1.80
+    rover           2        calm     tuned     0.02 / 0.14  0.02 / 0.10
+    rover           5        calm     tuned     0.16 / 0.85  0.15 / 0.77
+    rover-skid      2        calm     tuned     0.02 / 0.18  0.02 / 0.19
+    rover-skid      5        calm     tuned     0.13 / 0.60  0.09 / 0.54
 
-(``tuned``: by ``mavhelm tune`` in that run; a tune's gains vary a little from run to run.
-At 5 m/s the defaults' Survey measured 1.27–1.39 m max in three runs, and 14.6 m on its last
-leg in a fourth, not understood.)
-The chained TrackLines (Radius 1 m) cannot turn in to the next line, so the swing after each
-turn stays in their maximum; the Survey turns in (``mavhelm.tasks.trackline``).
+(``tuned``: by ``mavhelm tune`` in that run, a Lead in metres for the survey's speed; a tune's
+gains vary a little from run to run: MaxTurnRate 53–104, YAW_PID_KP 0.41–0.57, KD 0.25–0.34,
+a heading loop of 1.2–2.5 /s, slower than the defaults' 3.4 /s.)
+
+At WP_SPEED 2 the defaults hold every model within 0.15 m. At 5 m/s what is left is the
+corner onto each leg: the Survey and the chained TrackLines turn in a Lead (7.5 m) and the
+heading loop's lag before it, and the vehicle is then either still closing on the leg at
+10 m along it or has swung 0.4–1 m past it (one run to the next differs by as much); the
+motorboat-skid at 5 m/s also hunts ±0.5 m mid-leg (its yaw at speed wants a gentler loop than
+the defaults'; its tuned loop did worse). Run to run, a row's maximum varies by
+about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s.
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
@@ -91,15 +109,18 @@ import math
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.companion.bridge.config import IMAVLINK_SCHEMA
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import load_mission, parse_mission
 from mavhelm.demo.harness import SimulatedRun
 from mavhelm.tasks.geometry import Point2, lawnmower, track_position
+from mavhelm.tasks.pid import GAIN_PARAMS
+from mavhelm.tasks.trackline import DEFAULT_LEAD_TIME
 from tests.support.ardupilot import (
     SKIP_REASON,
     CompanionProcess,
@@ -137,18 +158,37 @@ class Helm:
 
     name: str
     yaw_kp: float
-    lead: float
+    lead: float | None
+    """Lead (m); None: the tasks' default, LeadTime × speed."""
     max_turn_rate: float = 45.0
     app_tick: float = 10.0
     stream_hz: float = 0.0
     """ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT rate; 0: the bridge's defaults."""
     yaw_kd: float = 0.2
+    lead_time: float | None = None
+    """LeadTime (s) when ``lead`` is None; None: the tasks' default."""
+
+    def lead_line(self) -> str:
+        if self.lead is not None:
+            return f"Lead       = {self.lead:g}"
+        if self.lead_time is not None:
+            return f"LeadTime   = {self.lead_time:g}"
+        return "// Lead: the default"
 
 
 TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead=3.0,
              max_turn_rate=90.0)
-DEFAULTS = Helm("product defaults: MaxTurnRate 45, YAW_PID_KP 0.5, Lead 5", yaw_kp=0.5,
-                lead=5.0)
+def product_defaults() -> Helm:
+    """The product's defaults, read from their declarations."""
+    kp = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KP")
+    kd = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KD")
+    rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
+    return Helm(f"product defaults: MaxTurnRate {rate:g}, YAW_PID_KP {kp:g}, "
+                f"LeadTime {DEFAULT_LEAD_TIME:g} s", yaw_kp=kp, lead=None,
+                max_turn_rate=rate, yaw_kd=kd)
+
+
+DEFAULTS = product_defaults()
 
 
 
@@ -161,7 +201,7 @@ SURVEY = f"""
         B          = {B:g}
         Spacing    = {SPACING:g}
         Rotation   = {ROTATION:g}
-        Lead       = {{lead:g}}
+        {{lead}}
         Thrust     = 100
         TimeOut    = 380
         FinishFlag = EndMission
@@ -187,7 +227,7 @@ def chain_tasks() -> str:
         P1         = {x1:g}, {y1:g}
         P2         = {x2:g}, {y2:g}
         Radius     = {CAPTURE:g}
-        Lead       = {{lead:g}}
+        {{lead}}
         Thrust     = 100
         TimeOut    = 120
 {start}        FinishFlag = {finish}
@@ -204,7 +244,7 @@ def mission_text(kind: str, helm: Helm) -> str:
                for name in ("ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT")
                if helm.stream_hz]
     return standard_mission(
-        TASKS[kind].format(lead=helm.lead), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
+        TASKS[kind].format(lead=helm.lead_line()), origin=(LAT0, LON0), nav=NAV_AP_FALLBACK,
         imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
                   *streams],
         helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,
@@ -446,6 +486,25 @@ def real_rows(binary: Path, logs: Path, args: argparse.Namespace, helm: Helm, on
     return rows
 
 
+def flown_helm(args: argparse.Namespace) -> Helm:
+    """The helm settings the command line asks for: the tuned or the product's defaults,
+    with any setting overridden."""
+    helm = DEFAULTS if args.helm_defaults else TUNED
+    if args.app_tick is not None or args.stream_hz is not None:
+        helm = replace(helm, name=helm.name + f", AppTick {args.app_tick or helm.app_tick:g}, "
+                       f"streams {args.stream_hz or helm.stream_hz:g} Hz",
+                       app_tick=args.app_tick or helm.app_tick,
+                       stream_hz=args.stream_hz or helm.stream_hz)
+    if args.lead_time is not None:
+        helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
+                       lead_time=args.lead_time)
+    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD")):
+        if getattr(args, key) is not None:
+            helm = replace(helm, name=f"{helm.name}; {attr} {getattr(args, key):g}",
+                           **{key: getattr(args, key)})
+    return helm
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", default="calm,wind,sim,exact",
@@ -454,8 +513,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tasks", default="Survey,TrackLines",
                         help="missions, of Survey, TrackLines; default both")
     parser.add_argument("--helm-defaults", action="store_true",
-                        help="fly the product's defaults (MaxTurnRate 45, YAW_PID_KP 0.5, "
-                             "Lead 5), not the tuned settings")
+                        help="fly the product's defaults (MaxTurnRate 90, YAW_PID_KP 0.75, "
+                             "LeadTime 1.5 s), not the tuned settings")
     parser.add_argument("--tune", action="store_true",
                         help="real SITL: run mavhelm tune first (per model and condition) "
                              "and fly the gains it writes")
@@ -467,6 +526,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="bench: each leg from the first point within 2 m of it and 10 m "
                              "along; issue: from 10 m along whatever the offset (counts the "
                              "swing after each turn), both to 5 m before the end")
+    parser.add_argument("--lead-time", type=float, default=None,
+                        help="fly the tasks' LeadTime (s) instead of the helm's Lead")
+    parser.add_argument("--yaw-kp", type=float, default=None, help="fly this YAW_PID_KP")
+    parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "
@@ -481,12 +544,7 @@ def main(argv: list[str] | None = None) -> int:
     unknown = (only - {"calm", "wind", "sim", "exact"}) | (set(kinds) - set(TASKS))
     if unknown:
         parser.error(f"unknown: {', '.join(sorted(unknown))}")
-    helm = DEFAULTS if args.helm_defaults else TUNED
-    if args.app_tick is not None or args.stream_hz is not None:
-        helm = Helm(helm.name + f", AppTick {args.app_tick or helm.app_tick:g}, streams "
-                    f"{args.stream_hz or helm.stream_hz:g} Hz", helm.yaw_kp, helm.lead,
-                    helm.max_turn_rate, args.app_tick or helm.app_tick,
-                    args.stream_hz or helm.stream_hz)
+    helm = flown_helm(args)
     binary = ardupilot_binary()
     settle_xte = SETTLE_XTE if args.window == "bench" else math.inf
     rows: list[tuple[str, str, Figures]] = []

@@ -55,7 +55,7 @@ EVENT_WALL_S = 30.0
 # The heading gains in rc_mission: under rc_override RUDDER/MAXRUDDER is the steering servo's
 # whole throw, with no turn-rate limit and no ArduPilot rate loop (unlike guided, where full
 # rudder is MaxTurnRate). The SITL motorboat at 60 % throttle then turns at a few hundred deg/s
-# at full steering, and the default YAW_PID_KP 0.5 / KD 0.2 limit-cycle bang-bang between 1000
+# at full steering, and YAW_PID_KP 0.5 / KD 0.2 limit-cycle bang-bang between 1000
 # and 2000 us, the heading swinging about 0..190 deg (measured); KP 0.2, KD 0 turns the boat
 # from north and settles on 89 deg within about 2 s. The gains are the mission's, as a user's.
 def rc_mission(sysid: int) -> str:

@@ -400,7 +400,7 @@ def test_controller_history_is_dropped_after_an_offline_gap() -> None:
     rig.tick(60.0, NAV_HEADING=0.0)
     out = rig.tick(HELM_ONLINE=1.0, NAV_HEADING=0.0)
     assert rig.helm.task("H").yaw_pid.i == 0.0, "no 60 s of integral from the offline gap"
-    assert one(out, "DESIRED_RUDDER") == pytest.approx(5.0)
+    assert one(out, "DESIRED_RUDDER") == pytest.approx(7.5)  # YAW_PID_KP 0.75 × 10°
 
 
 def test_end_mission_started_mid_tick_overrides_votes_already_cast() -> None:

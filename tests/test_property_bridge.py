@@ -506,7 +506,7 @@ def test_the_rig_sees_real_mavlink_both_ways():
     assert [(m.name, m.value) for m in result.written_by_send[1:3]] == [
         ("DES_RUDDER", 10.0), ("DES_THRUST", 50.0)]
     [target] = result.targets()
-    assert target.body_yaw_rate == f32(math.radians(22.5))
+    assert target.body_yaw_rate == f32(math.radians(45.0))  # 10 of MAXRUDDER 20 × MaxTurnRate 90
     assert target.thrust == 0.5
     # a read error drops the connection: offline, said once, and back only with a new
     # connection and a fresh HEARTBEAT on it

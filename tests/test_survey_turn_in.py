@@ -1,5 +1,5 @@
-"""Survey's turn onto a leg: the line to a leg's start is left a turn-in before it, a leg's
-end is flown to (mavhelm.tasks.trackline, "The turn onto a line")."""
+"""Survey's turns: the line to each corner, a leg's start or its end, is left a turn-in
+before it (mavhelm.tasks.trackline, "The turn onto a line")."""
 
 from __future__ import annotations
 
@@ -22,17 +22,17 @@ def survey(tblock: TBlock, lead: str = "5") -> Survey:
 
 
 @pytest.mark.parametrize("lead, expected", [("5", 5.0), ("3", 3.0), ("20", 5.0)])
-def test_a_leg_start_is_turned_in_to_and_a_leg_end_flown_to(tblock: TBlock, lead, expected):
+def test_a_leg_start_and_a_leg_end_are_turned_in_to(tblock: TBlock, lead, expected):
     task = survey(tblock, lead)
     # on the join from leg 0's end (25, 50) to leg 1's start (25, 40): a 90° turn onto leg 1
     task.index = 2
     task.follower = LineFollower(task.target(1), task.target(2), task.lead)
     # Lead · tan(45°), at most a Lead and half the 10 m join
     assert task.capture_radius(2) == pytest.approx(expected)
-    # on leg 1 itself: its end is flown to
+    # on leg 1 itself: the 90° turn onto the join to leg 2, as far (the join is 10 m)
     task.index = 3
     task.follower = LineFollower(task.target(2), task.target(3), task.lead)
-    assert task.capture_radius(3) == CAPTURE
+    assert task.capture_radius(3) == pytest.approx(expected)
 
 
 def test_no_turn_in_at_the_last_target_or_straight_on(tblock: TBlock):

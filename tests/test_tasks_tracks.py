@@ -228,7 +228,8 @@ def test_the_four_are_registered_case_insensitively() -> None:
 def test_trackline_parameters_and_defaults(tblock: TBlock) -> None:
     t = make(tblock, "TrackLine", ("P2", "0, 100"))
     assert isinstance(t, TrackLine)
-    assert (t.p1, t.p2, t.lead, t.radius, t.thrust) == (None, (0.0, 100.0, None), 5.0, 3.0, None)
+    assert (t.p1, t.p2, t.lead, t.lead_time, t.radius, t.thrust) == (
+        None, (0.0, 100.0, None), None, 1.5, 3.0, None)  # no Lead: LeadTime × speed
     assert t.needs() == {"NAV_X", "NAV_Y", "NAV_HEADING"}
     t = make(tblock, "TrackLine", ("P1", "1,2"), ("P2", "3,4"), ("Lead", "1"), ("Radius", "7"),
              ("Thrust", "50"))
@@ -258,7 +259,7 @@ def test_trackline_refusals(tblock: TBlock, pairs, expected: str) -> None:
 
 def test_trackline_steers_for_the_carrot(tblock: TBlock, nav_at: NavAt) -> None:
     t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,100"), ("LOGPID", "true"),
-             ("Thrust", "70"))
+             ("Lead", "5"), ("Thrust", "70"))
     votes = t.step(nav_at(1.0, x=10.0, y=20.0, heading=0.0), 1.0)
     assert votes is not None and votes["RUDDER"] < 0 and votes["THRUST"] == 70.0
     out = dict(t.take_notifications())
@@ -274,7 +275,7 @@ def test_trackline_steers_for_the_carrot(tblock: TBlock, nav_at: NavAt) -> None:
 
 def test_trackline_near_the_end_steers_for_p2(tblock: TBlock, nav_at: NavAt) -> None:
     t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,100"), ("LOGPID", "true"),
-             ("Radius", "1"))
+             ("Lead", "5"), ("Radius", "1"))
     t.step(nav_at(1.0, x=4.0, y=98.0, heading=0.0), 1.0)
     out = dict(t.take_notifications())
     expected = angle_diff(bearing((4.0, 98.0), (0.0, 100.0)), 0.0)
@@ -310,7 +311,7 @@ def test_trackline_completes_once_past_the_end_along_the_line(tblock: TBlock,
 
 def test_xte_integral_grows_bounded_and_only_near_the_line(tblock: TBlock,
                                                           nav_at: NavAt) -> None:
-    t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,1000"))
+    t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,1000"), ("Lead", "5"))
     assert isinstance(t, TrackLine)
     for k in range(1, 11):  # 10 s, 1 m to starboard, moving parallel to the line at 1 m/s
         t.step(nav_at(float(k), x=1.0, y=float(k), heading=0.0), float(k))
@@ -345,7 +346,7 @@ def test_xte_integral_learns_in_pursuit_time_constants(tblock: TBlock, nav_at: N
 
 
 def test_xte_integral_steps_at_most_one_second(tblock: TBlock, nav_at: NavAt) -> None:
-    t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,1000"))
+    t = make(tblock, "TrackLine", ("P1", "0,0"), ("P2", "0,1000"), ("Lead", "5"))
     assert isinstance(t, TrackLine)
     for k in range(1, 7):
         t.step(nav_at(float(k), x=2.0, y=float(k), heading=0.0), float(k))
@@ -557,7 +558,8 @@ def test_survey_parameters(tblock: TBlock) -> None:
     t = make(tblock, "Survey", ("Center", "0,40"), ("A", "50"), ("B", "20"), ("Spacing", "10"),
              ("Rotation", "-270"))
     assert isinstance(t, Survey)
-    assert (t.rotation, t.lead, t.leg_timeout, len(t.legs)) == (90.0, 5.0, None, 3)
+    assert (t.rotation, t.lead, t.lead_time, t.leg_timeout, len(t.legs)) == (
+        90.0, None, 1.5, None, 3)
     t = make(tblock, "Survey", ("Center", "0,40"), ("A", "50"), ("B", "20"), ("Spacing", "10"),
              ("LegTimeOut", "never"))
     assert isinstance(t, Survey) and t.leg_timeout is None

@@ -33,6 +33,7 @@ from mavhelm.tasks.overall_timeout import OverallTimeOut
 from mavhelm.tasks.pid import GAIN_PARAMS, HelmGains
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.third_party import AllowSpec, ThirdParty
+from mavhelm.tasks.trackline import link_track_lines
 
 ONLINE_VAR = HELM_ONLINE
 ALWAYS_HEARD = (NAV_X, NAV_Y, NAV_HEADING, NAV_YAW)
@@ -79,6 +80,7 @@ class Helm(App):
                 )
             seen[task.name] = tb
             self.tasks.append(task)
+        link_track_lines(self.tasks)
         for task in self.tasks:
             if isinstance(task, EndMission) and END_MISSION not in task.start_flags:
                 # pNav's navigation failure ends the mission (spec 2.2.11) whatever the flags

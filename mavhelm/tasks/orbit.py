@@ -4,7 +4,8 @@ The polygon has ``Sides`` vertices on the circle of ``Radius`` about ``Location`
 north of the centre). The task first steers from where the vehicle is when it goes active to the
 vertex nearest it, then flies side after side — clockwise (bearing from the centre increasing)
 for ``Direction = CW``, anticlockwise for ``CCW`` — each side held as a TrackLine (carrot and
-donkey with the bounded cross-track integral, see ``trackline``) with a 5 m lead. A vertex is
+donkey with the bounded cross-track integral, see ``trackline``) with the default lead
+(LeadTime 1.5 s of the speed). A vertex is
 reached within ``PosRadius`` or once the vehicle has passed it along its side. The task
 completes when it is back at the first vertex after ``Repeat`` orbits, posting
 ``<NAME>_ORBIT`` (orbits done) at the end of each and ``<NAME>_XTE`` every tick.

@@ -14,6 +14,12 @@ from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Number, Param
 
 FIR_TAPS = 5
+MIN_DT = 0.01
+"""Samples closer than this (s) are one instant to the derivative and the integral. Two
+values of one quantity can be stamped microseconds apart (an autopilot clock that moves
+between two messages handled in one read): a heading that differs by 0.1° over 10 µs is a
+derivative of 10 000 °/s, which the 5-tap FIR held at full rudder for half a second (on the
+real SITL motorboat, a 1.5 m swing mid-leg)."""
 
 
 class ScalarPID:
@@ -58,14 +64,15 @@ class ScalarPID:
     def run(self, error: float, t: float) -> float:
         """Feed the error observed at data time ``t``; return the clamped output.
 
-        A sample whose time is not after the previous one (a repeated or out-of-order stamp)
-        updates the proportional term only: there is no dt to integrate or differentiate over.
+        A sample whose time is not at least ``MIN_DT`` after the previous one (a repeated,
+        out-of-order or near-simultaneous stamp) updates the proportional term only: there is
+        no dt to integrate or differentiate over.
         """
         if self.angular:
             error = wrap_degrees(error)
         if self._last_time is not None and self._last_error is not None:
             dt = t - self._last_time
-            if dt > 0:
+            if dt >= MIN_DT:
                 diff = error - self._last_error
                 if self.angular:
                     diff = wrap_degrees(diff)
@@ -114,7 +121,7 @@ def _pid_params(prefix: str, attr: str, what: str, defaults: tuple[float, ...]) 
 
 GAIN_PARAMS: tuple[Param, ...] = (
     *_pid_params("YAW", "yaw", "heading controller (deg of rudder per deg of error)",
-                 (0.5, 0.2, 0.0, 2.0)),
+                 (0.75, 0.2, 0.0, 2.0)),
     *_pid_params("Z_TO_PITCH", "z_to_pitch", "depth-to-pitch controller", (0.5, 0.0, 0.0, 0.0)),
     *_pid_params("PITCH", "pitch", "pitch-to-elevator controller", (0.5, 0.0, 0.0, 0.0)),
     Param("MAXRUDDER", ANGLE_LIMIT, 20.0, "deg", "rudder limit; full rudder = MaxTurnRate",
@@ -128,26 +135,31 @@ GAIN_PARAMS: tuple[Param, ...] = (
 """The pHelm block's controller settings, shared by every task (one ``HelmGains``)."""
 
 
+def _default(attr: str) -> float:
+    """The declared default of one of ``GAIN_PARAMS`` (by attribute), so it is said once."""
+    return float(next(p.default for p in GAIN_PARAMS if p.attribute == attr))
+
+
 @dataclass
 class HelmGains:
     """Controller gains and actuator limits from the pHelm block, shared by every task."""
 
-    yaw_kp: float = 0.5
-    yaw_kd: float = 0.2
-    yaw_ki: float = 0.0
-    yaw_integral_limit: float = 2.0
-    z_to_pitch_kp: float = 0.5
-    z_to_pitch_kd: float = 0.0
-    z_to_pitch_ki: float = 0.0
-    z_to_pitch_integral_limit: float = 0.0
-    pitch_kp: float = 0.5
-    pitch_kd: float = 0.0
-    pitch_ki: float = 0.0
-    pitch_integral_limit: float = 0.0
-    max_rudder: float = 20.0
-    max_thrust: float = 100.0
-    max_elevator: float = 30.0
-    max_pitch: float = 10.0
+    yaw_kp: float = _default("yaw_kp")
+    yaw_kd: float = _default("yaw_kd")
+    yaw_ki: float = _default("yaw_ki")
+    yaw_integral_limit: float = _default("yaw_integral_limit")
+    z_to_pitch_kp: float = _default("z_to_pitch_kp")
+    z_to_pitch_kd: float = _default("z_to_pitch_kd")
+    z_to_pitch_ki: float = _default("z_to_pitch_ki")
+    z_to_pitch_integral_limit: float = _default("z_to_pitch_integral_limit")
+    pitch_kp: float = _default("pitch_kp")
+    pitch_kd: float = _default("pitch_kd")
+    pitch_ki: float = _default("pitch_ki")
+    pitch_integral_limit: float = _default("pitch_integral_limit")
+    max_rudder: float = _default("max_rudder")
+    max_thrust: float = _default("max_thrust")
+    max_elevator: float = _default("max_elevator")
+    max_pitch: float = _default("max_pitch")
 
     @classmethod
     def from_values(cls, values: dict[str, object]) -> HelmGains:

@@ -2,7 +2,7 @@
 that fly chains of track lines (XYPattern, Orbit, Survey).
 
 The control law, in one line (the vehicle's heading then follows it through the helm's heading
-PID, spec 1.4.1):
+PID, spec 1.4.1; Lead is LeadTime × V unless given):
 
     desired heading = line bearing − atan(XTE / Lead) − c,    dc/dt = XTE · V / (3 · Lead²)
 
@@ -19,13 +19,20 @@ vehicle onto the line with a time constant of Lead / V and arrives on the line's
 How short a Lead can be is set by the heading loop. Taking that loop as a first-order lag of
 gain Kψ = YAW_PID_KP × MaxTurnRate / MAXRUDDER (per second: degrees per second of turn per
 degree of heading error, KD neglected), the cross-track loop near the line is
-``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V). The defaults (Kψ =
-0.5 × 45 / 20 = 1.1 /s) need Lead ≈ 5 m at 2 m/s for ζ ≈ 0.8, which is the default Lead; a
-faster heading loop allows a shorter Lead and holds the line tighter. The first-order model
-ignores the loop's delays (the helm's tick, telemetry, GPS latency), so take the Lead a little
-longer than it says: ``benchmarks/bench_tracking.py`` flies MaxTurnRate 90 with YAW_PID_KP 0.75
-(Kψ 3.4 /s) and Lead 3; with Kψ 4.5 /s and Lead 2 one leg in sixteen swung ±0.8 m for 15 s
-after its turn.
+``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V): it depends on the *lead
+time* Lead / V, not on the Lead. So the default Lead is a lead time, ``LeadTime`` seconds of
+the speed over the ground (measured from the fixes, ``Speedometer``; at least 1 m), and one
+default fits every speed; a ``Lead`` given in metres is kept whatever the speed (``mavhelm
+tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
+(Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
+damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
+model within 0.15 m at 2 m/s, and at 5 m/s swing 0.2–1.1 m after a corner
+(``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
+(Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
+Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
+(the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
+is anticipated (below), and the time a vehicle of turn rate ω needs to turn 90° is about
+1 / ω plus its delay: 1.5 s suits the SITL boat at 5 m/s (it turns about 50°/s).
 
 Why the integral. Pure pursuit alone leaves a steady offset whenever something pushes the
 vehicle sideways or its heading is not what it believes — a cross current, wind and leeway (at
@@ -74,23 +81,29 @@ cannot fix, an *offset held*:
 In the simulator, 0.3 m/s of current across the line leaves pure pursuit 0.75 m off (RMS);
 with the integral it holds 0.2 m, as in still water.
 
-The turn onto a line. A route that knows its next line turns in to it as a skipper does:
-Survey leaves the line onto each leg's start ``RouteTask.turn_in`` before it (Lead ·
-tan(Δ/2) for a turn of Δ, at most one Lead and half of either line), so the carrot is already
-on the leg as far ahead as the vehicle is off it and pure pursuit brings it out of the turn on
-the leg rather than past it; a leg's own end is still flown to (its capture is 1 m), so legs
-are surveyed whole. On the real SITL motorboat at the defaults (calm, WP_SPEED 2, XTE from
-10 m along each leg to 5 m before its end) this took the Survey from 0.24 m RMS and 1.64 m max
-to 0.07 and 0.48 m. A chain of separate TrackLine tasks cannot do this (a task does not know
-the next one's line); its Radius is its turn-in.
+The turn onto a line. A route that knows its next line turns in to it as a skipper does: it
+leaves each line ``RouteTask.turn_in`` before its end (Lead · tan(Δ/2) for a turn of Δ, at
+most one Lead and half of either line), so the carrot is already on the next line as far
+ahead as the vehicle is off it and pure pursuit brings it out of the turn on the line rather
+than past it. Onto a longer line the turn is also asked for the heading loop's lag earlier
+(``TURN_LAG_S`` of the speed): what a turn cannot avoid then lands on the shorter line, a
+survey's join rather than its leg (at 5 m/s on the real SITL motorboat, with the lag at every
+corner the legs' ends swung 0.6–0.7 m; without it the swing onto each leg was 0.5–1.1 m; with
+it onto the longer line only, 0.2–0.8 m, the vehicle then still closing on the leg 10 m
+along it). Survey turns in at every corner, a leg's end too: flying to a leg's end left the
+vehicle swinging across the short join onto the next leg (at 5 m/s, 1.4 m max on the legs). A
+chain of TrackLine tasks does the same: when exactly one TrackLine starts on this one's
+FinishFlag and continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm tells this
+one the next line at load (``link_track_lines``) and its capture radius becomes at least the
+turn-in; at the old defaults, each chained line flown to its Radius (1 m) swung 1.0–1.25 m
+after every corner.
 
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
 a Survey from 0.11 to 0.07 m RMS on the real SITL; at the tuned settings it made it no
 better; and it needs another rule for reaching a corner: cutting a turn of more than 90°, the
-vehicle never passes P2 along the line (in the kinematic unit test it circled P2), and legs
-would no longer be flown to their ends. A 20 Hz AppTick with 20 Hz telemetry measured no
-better than 10 Hz.
+vehicle never passes P2 along the line (in the kinematic unit test it circled P2). A 20 Hz
+AppTick with 20 Hz telemetry measured no better than 10 Hz.
 
 Every tick the task posts ``<NAME>_XTE``, the signed cross-track error in metres (positive: the
 vehicle is to starboard of the line, looking from P1 to P2).
@@ -106,18 +119,48 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Iterable
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
-from mavhelm.tasks.base import HEADING, NavState, Votes
+from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
 from mavhelm.tasks.waypoint import RADIUS
 
 LEAD = Number(1.0, 10_000.0)
 """The carrot's lead along the line in metres (MOOS: at least 1 m)."""
+MIN_LEAD = 1.0
+"""The shortest lead a lead time gives (LEAD's minimum): at rest the carrot is still ahead."""
 
-DEFAULT_LEAD = 5.0
+LEAD_TIME = Number(0.1, 60.0)
+DEFAULT_LEAD_TIME = 1.5
+"""The carrot's lead in seconds of the vehicle's speed over the ground (see the module
+docstring: the pursuit's damping depends on the lead time, not on the lead)."""
+
+LEAD_PARAMS = (
+    Param("Lead", LEAD, None, "m",
+          "the carrot's lead along the line beyond the vehicle's projection on it, fixed; "
+          "default: LeadTime × the speed over the ground (the original's default is 1 m, "
+          "which turns a boat sharply onto the line)"),
+    Param("LeadTime", LEAD_TIME, DEFAULT_LEAD_TIME, "s",
+          "without Lead, the carrot leads by this many seconds of the speed over the "
+          "ground (at least 1 m), so the line is held as well at any speed",
+          attr="lead_time"),
+)
+"""The lead settings of every task that flies track lines (TrackLine, Survey)."""
+
+TURN_LAG_S = 0.5
+"""How long a turn takes to start after the helm asks for it (the helm's tick, telemetry, the
+vehicle's yaw response: 0.3–0.5 s on the real SITL motorboat); the turn onto a longer line is
+asked for this much earlier (``RouteTask.turn_in``)."""
+
+SPEED_BASELINE_S = 1.0
+"""The speed over the ground is measured between fixes at least this far apart (GPS noise)."""
+
+CHAIN_GAP = 0.1
+"""A TrackLine whose P1 is this close (m) to the P2 of the TrackLine that starts it continues
+that line: the first turns in to it (``link_track_lines``)."""
 
 XTE_TI_LEADS = 3.0
 """The integral's time constant in pursuit time constants (Lead / speed): the correction grows
@@ -225,18 +268,55 @@ class LineFollower:
         return wrap_degrees(aim - self.correction) % 360.0
 
 
+class Speedometer:
+    """Speed over the ground from the position fixes, over a baseline of at least
+    ``SPEED_BASELINE_S`` (GPS noise). Shared by the TrackLines of a chain, so a line that
+    starts mid-turn knows the speed at once."""
+
+    def __init__(self) -> None:
+        self.speed: float | None = None
+        self._fixes: deque[tuple[float, float, float]] = deque()
+
+    def update(self, t: float, p: Point2) -> None:
+        fixes = self._fixes
+        if fixes and t <= fixes[-1][0]:
+            return
+        fixes.append((t, p[0], p[1]))
+        while len(fixes) > 1 and t - fixes[1][0] >= SPEED_BASELINE_S:
+            fixes.popleft()
+        t0, x0, y0 = fixes[0]
+        if t - t0 >= SPEED_BASELINE_S:
+            self.speed = math.hypot(p[0] - x0, p[1] - y0) / (t - t0)
+
+
 class RouteTask(SteeringTask):
     """A task that flies a chain of track lines: target 0 from where the vehicle is when the
     task goes active, then target k-1 → target k. A subclass says where the targets are.
 
     Hooks: ``plan(start, now)`` once, on the first tick with a position; ``target(k)`` (None
     after the last); ``capture_radius(k)``; ``begin(k, now)`` when the line to target k starts;
-    ``arrived(k, now)`` when target k is reached. ``lead`` is the carrot's lead in metres.
+    ``arrived(k, now)`` when target k is reached; ``after(k)``, the point after target k (the
+    next target unless the subclass knows more). ``lead`` is the carrot's lead in metres, or
+    None for ``lead_time`` seconds of the speed over the ground.
     """
 
-    lead: float = DEFAULT_LEAD
+    lead: float | None = None
+    lead_time: float = DEFAULT_LEAD_TIME
     follower: LineFollower | None = None
+    speedometer: Speedometer | None = None
     index = -1
+
+    def current_lead(self) -> float:
+        """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
+        if self.lead is not None:
+            return self.lead
+        speed = self.speed_source().speed
+        return max(MIN_LEAD, self.lead_time * (speed or 0.0))
+
+    def speed_source(self) -> Speedometer:
+        if self.speedometer is None:
+            self.speedometer = Speedometer()
+        return self.speedometer
 
     def needs(self) -> set[str]:
         return {"NAV_X", "NAV_Y", HEADING}
@@ -274,21 +354,33 @@ class RouteTask(SteeringTask):
     def arrived(self, k: int, now: float) -> None:
         """Target k is reached (within its capture radius, or passed along the line)."""
 
+    def after(self, k: int) -> Point2 | None:
+        """The point the line after target k runs to (None: the route ends at target k)."""
+        return self.target(k + 1)
+
     def turn_in(self, k: int) -> float:
         """How far before target k to start the line after it, in metres, as a skipper turns
         in before a corner so as to come out of the turn on the new line rather than swing
         past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
         the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
-        once), at most one Lead and half the next line. 0 at the last target."""
-        p2, after = self.target(k), self.target(k + 1)
+        once), at most one Lead; onto a longer line, also the way run during the heading
+        loop's lag (``TURN_LAG_S`` of the speed, times sin Δ), so that what the turn cannot
+        avoid lands on the shorter line (a survey's join, not its leg); at most half of
+        either line. 0 at the last target."""
+        p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
             return 0.0
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
-        ahead = self.lead * math.tan(math.radians(min(turn, 90.0) / 2.0))
-        return min(ahead, self.lead, 0.5 * distance(p2, after), 0.5 * follower.length)
+        lead = self.current_lead()
+        turn = math.radians(min(turn, 90.0))
+        ahead = min(lead * math.tan(turn / 2.0), lead)
+        following = distance(p2, after)
+        if following > follower.length:
+            ahead += TURN_LAG_S * (self.speed_source().speed or 0.0) * math.sin(turn)
+        return min(ahead, 0.5 * following, 0.5 * follower.length)
 
     # ---- driving -------------------------------------------------------------------------
 
@@ -299,7 +391,7 @@ class RouteTask(SteeringTask):
         if p2 is None:
             self.follower = None
             return False
-        self.follower = LineFollower(p1, p2, self.lead)
+        self.follower = LineFollower(p1, p2, self.current_lead())
         self.segment_start_time = now
         self.begin(k, now)
         return True
@@ -307,6 +399,8 @@ class RouteTask(SteeringTask):
     def update(self, nav: NavState, now: float) -> Votes | None:
         assert nav.x is not None and nav.y is not None
         here = (nav.x, nav.y)
+        t = nav.time("NAV_X")
+        self.speed_source().update(now if t is None else t, here)
         if self.index < 0:
             self.plan(here, now)
             if not self.start_line(0, here, now):
@@ -330,6 +424,7 @@ class RouteTask(SteeringTask):
             return None
         assert nav.x is not None and nav.y is not None
         t = nav.time("NAV_X")
+        follower.lead = self.current_lead()
         heading = follower.heading((nav.x, nav.y), now if t is None else t)
         self.post(f"{self.name}_XTE", round(follower.xte, 3))
         return self.drive(heading, nav)
@@ -345,9 +440,7 @@ class TrackLine(RouteTask):
               "active, i.e. the previous waypoint of a chain"),
         Param("P2", Point(), unit="m", doc="end of the line (x,y), the goal",
               aliases=(Alias("Location"),)),
-        Param("Lead", LEAD, DEFAULT_LEAD, "m",
-              "the carrot's lead along the line beyond the vehicle's projection on it (the "
-              "original's default is 1 m, which turns a boat sharply onto the line)"),
+        *LEAD_PARAMS,
         Param("Radius", RADIUS, 3.0, "m",
               "capture radius at P2: the task completes closer than this (or once past P2; "
               "the original's default is 0)"),
@@ -355,6 +448,9 @@ class TrackLine(RouteTask):
     p1: tuple[float, float, float | None] | None
     p2: tuple[float, float, float | None]
     radius: float
+    next_point: Point2 | None = None
+    """The P2 of the TrackLine this one starts, when that one continues from this P2
+    (``link_track_lines``): this line is then left a turn-in early."""
 
     def check(self, block) -> None:
         if self.p1 is not None and math.hypot(self.p2[0] - self.p1[0],
@@ -366,10 +462,39 @@ class TrackLine(RouteTask):
     def target(self, k: int) -> Point2 | None:
         return (self.p2[0], self.p2[1]) if k == 0 else None
 
+    def after(self, k: int) -> Point2 | None:
+        return self.next_point if k == 0 else None
+
     def capture_radius(self, k: int) -> float:
-        return self.radius
+        return max(self.radius, self.turn_in(k))
 
     def start_line(self, k: int, p1: Point2, now: float) -> bool:
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
         return super().start_line(k, p1, now)
+
+
+def link_track_lines(tasks: Iterable[Task]) -> None:
+    """Chain the TrackLines a mission chains by its flags: when exactly one TrackLine is
+    started by this one's FinishFlag and continues from its P2 (its P1 within ``CHAIN_GAP``),
+    this one knows the next line and turns in to it as a route does (``RouteTask.turn_in``),
+    and the two share their measure of the speed."""
+    lines = [t for t in tasks if isinstance(t, TrackLine)]
+    links = [(first, nexts[0]) for first in lines
+             if len(nexts := _continuations(first, lines)) == 1]
+    for first, then in links:
+        first.next_point = (then.p2[0], then.p2[1])
+    for _ in range(len(links)):
+        changed = [then for first, then in links if then.speedometer is not first.speed_source()]
+        if not changed:
+            break
+        for first, then in links:
+            then.speedometer = first.speed_source()
+
+
+def _continuations(first: TrackLine, lines: list[TrackLine]) -> list[TrackLine]:
+    """The TrackLines that ``first``'s FinishFlag starts and that begin at its P2."""
+    finish = set(first.finish_flags)
+    end = (first.p2[0], first.p2[1])
+    return [t for t in lines if t is not first and finish & set(t.start_flags)
+            and t.p1 is not None and distance((t.p1[0], t.p1[1]), end) < CHAIN_GAP]

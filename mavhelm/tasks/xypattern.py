@@ -3,7 +3,8 @@
 The first line runs from where the vehicle is when the task goes active to the first
 ``Location``; every next line joins two successive Locations (and, on a repeat pass, the last
 to the first), each held as a TrackLine (carrot and donkey with the bounded cross-track integral,
-see ``trackline``) with a 5 m lead. A waypoint is reached within ``Radius`` or once the vehicle
+see ``trackline``) with the default lead (LeadTime 1.5 s of the speed). A waypoint is
+reached within ``Radius`` or once the vehicle
 has passed it along its line. ``Repeat`` is the number of passes *after* the first; ``FOREVER``
 patrols until the task's TimeOut (or a more important task) ends it — give it ``TimeOut = NEVER``
 for a patrol that runs until the mission ends. Every time the task steers for a new waypoint it

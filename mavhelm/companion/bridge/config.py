@@ -175,7 +175,7 @@ IMAVLINK_SCHEMA = Schema("iMAVLink", (
     Param("Servo", ServoSpec(), [], repeat=True, attr="servos",
           doc="a named auxiliary actuator on a servo output: DESIRED_<NAME> in percent "
               "(-100..100) becomes DO_SET_SERVO with PWM min..max"),
-    Param("MaxTurnRate", Number(0.0, 360.0, lo_open=True), 45.0, "deg/s",
+    Param("MaxTurnRate", Number(0.0, 360.0, lo_open=True), 90.0, "deg/s",
           "turn rate commanded at full rudder (MAXRUDDER)", attr="max_turn_rate"),
     Param("MaxSpeed", Number(0.0, 20.0, lo_open=True), 1.0, "m/s",
           "ArduSub: forward speed asked at full thrust (Rover uses its WP_SPEED)",
