@@ -49,7 +49,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Final
 
@@ -135,18 +135,32 @@ def _starts(rows: list[_Row], centroid: tuple[float, float]) -> list[tuple[float
 def _descend(p: list[float], rows: list[_Row], k: int, max_iterations: int,
              tolerance: float) -> tuple[float, list[float]]:
     """Gauss–Newton steps from ``p``, each halved until it lowers the cost; (cost, p)."""
-    cost = _cost(p, rows)
+
+    def step_of(q: list[float]) -> list[float] | None:
+        step = _solve_small(*_normal_equations(q, rows, k))
+        return step + [0.0] if step is not None and k == 2 else step
+
+    return _gauss_newton(p, lambda q: _cost(q, rows), step_of, range(3), max_iterations,
+                         tolerance)
+
+
+def _gauss_newton(p: list[float], cost_of: Callable[[list[float]], float],
+                  step_of: Callable[[list[float]], list[float] | None], states: Sequence[int],
+                  max_iterations: int, tolerance: float) -> tuple[float, list[float]]:
+    """Gauss–Newton from ``p`` on ``states``: each step (None: the normal equations are
+    singular) halved until it does not raise the cost; stops when a step taken is below
+    ``tolerance`` or even a thousandth of one raises the cost. Returns (cost, p)."""
+    cost = cost_of(p)
     for _ in range(max_iterations):
-        normal, rhs = _normal_equations(p, rows, k)
-        step = _solve_small(normal, rhs)
+        step = step_of(p)
         if step is None:
             break
-        if k == 2:
-            step.append(0.0)
         scale = 1.0
         while scale > 1e-3:
-            trial = [p[i] + scale * step[i] for i in range(3)]
-            trial_cost = _cost(trial, rows)
+            trial = list(p)
+            for state, delta in zip(states, step, strict=True):
+                trial[state] += scale * delta
+            trial_cost = cost_of(trial)
             if trial_cost <= cost:
                 break
             scale *= 0.5
@@ -288,28 +302,9 @@ def _joint_normal(p: list[float], eqs: list[_Eq], slot: dict[int, int]
 def _joint_descend(p: list[float], eqs: list[_Eq], slot: dict[int, int], max_iterations: int,
                    tolerance: float) -> tuple[float, list[float]]:
     """Gauss–Newton steps over the solved states, each halved until it lowers the cost."""
-    cost = _joint_cost(p, eqs)
-    states = sorted(slot, key=slot.__getitem__)
-    for _ in range(max_iterations):
-        normal, rhs = _joint_normal(p, eqs, slot)
-        step = _solve_any(normal, rhs)
-        if step is None:
-            break
-        scale = 1.0
-        while scale > 1e-3:
-            trial = list(p)
-            for state, delta in zip(states, step, strict=True):
-                trial[state] += scale * delta
-            trial_cost = _joint_cost(trial, eqs)
-            if trial_cost <= cost:
-                break
-            scale *= 0.5
-        else:
-            break
-        p, cost = trial, trial_cost
-        if scale * math.sqrt(sum(v * v for v in step)) < tolerance:
-            break
-    return cost, p
+    return _gauss_newton(p, lambda q: _joint_cost(q, eqs),
+                         lambda q: _solve_any(*_joint_normal(q, eqs, slot)),
+                         sorted(slot, key=slot.__getitem__), max_iterations, tolerance)
 
 
 def _solve_any(a: list[list[float]], b: list[float]) -> list[float] | None:
