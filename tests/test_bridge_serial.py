@@ -20,6 +20,7 @@ from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
 from mavhelm.core.bus import Bus
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
+from tests.support.waiting import wait_for
 
 ORIGIN = Origin(56.4120, -5.4760)
 
@@ -117,7 +118,14 @@ def test_serial_autopilot_becomes_variables(serial_link):
     assert got["INS_YAW_VEL"] == pytest.approx(-0.1)
     assert got["AP_MODE"] == "GUIDED" and got["HELM_ONLINE"] == 1.0
     # the bridge introduced itself and asked for its streams over the same line
-    sent = ap.read()
+    sent: list = []
+
+    def streams_asked() -> bool:  # the kernel hands a pty's bytes over on its own time
+        sent.extend(ap.read())
+        return {mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, mavlink.MAVLINK_MSG_ID_ATTITUDE} <= {
+            int(m.param1) for m in sent if m.get_type() == "COMMAND_LONG"} and any(
+            m.get_type() == "HEARTBEAT" for m in sent)
+    wait_for(streams_asked, 5.0, "the bridge's HEARTBEAT and stream requests on the pty")
     heartbeats = [m for m in sent if m.get_type() == "HEARTBEAT"]
     assert heartbeats and heartbeats[0].get_srcComponent() == 191
     assert heartbeats[0].autopilot == mavlink.MAV_AUTOPILOT_INVALID
@@ -170,7 +178,8 @@ def test_offline_modes_and_disarmed_send_no_actuation(serial_link):
     assert len(targets) == 1
     assert targets[0].type_mask == 0x03
     assert targets[0].thrust == pytest.approx(0.5)
-    assert targets[0].body_yaw_rate == pytest.approx(math.radians(10.0 / 20.0 * 45.0))
+    turn = bridge.config.max_turn_rate  # deg/s at full rudder (20 deg by default)
+    assert targets[0].body_yaw_rate == pytest.approx(math.radians(10.0 / 20.0 * turn))
 
 
 def test_heartbeat_silence_takes_the_link_down(serial_link):
@@ -200,8 +209,13 @@ def test_configured_stream_rates_are_what_is_requested():
         ap = FakeAutopilot(master)
         ap.heartbeat(0, armed=False)
         tick(bridge, bus, clock)
-        intervals = {int(m.param1): m.param2 for m in ap.read()
-                     if m.get_type() == "COMMAND_LONG"}
+        intervals: dict[int, float] = {}
+
+        def requested() -> bool:  # the kernel hands a pty's bytes over on its own time
+            intervals.update({int(m.param1): m.param2 for m in ap.read()
+                              if m.get_type() == "COMMAND_LONG"})
+            return mavlink.MAVLINK_MSG_ID_VFR_HUD in intervals
+        wait_for(requested, 5.0, "the stream requests on the pty")
         assert intervals[mavlink.MAVLINK_MSG_ID_VFR_HUD] == 500000
     finally:
         bridge.close()
