@@ -235,3 +235,32 @@ def test_frames_wait_out_busy_ticks_but_keep_coming(lockstep):
     rate = (server.sent - sent0) / (run.clock.now() - t0)
     assert view.deferred > 10 and rate >= 2.0, (view.deferred, rate)
     assert slow.framed_when_slow <= 0.1 * slow.ticks, "frames made on the slow ticks"
+
+
+def test_frames_keep_values_alerts_flags_and_a_track_between_facts():
+    """The server's side: values persist across facts, alerts newest first, a non-finite flag
+    shown as text (JSON has no NaN), a track point only after the vehicle moved 0.5 m."""
+    from mavhelm.companion.status import CompanionStatus
+    from mavhelm.companion.web.frames import Frames
+
+    def facts(t: float, values: dict, mission: dict | None = None) -> dict:
+        out = {"type": "facts", "t": t, "status": CompanionStatus(), "values": values,
+               "goal": None, "running": [], "link": {}, "web": {"dropped": 0}}
+        return out if mission is None else {**out, "mission": mission}
+
+    frames = Frames()
+    first = frames.frame(facts(1.0, {"NAV_X": 1.0, "NAV_Y": 2.0, "Go": math.nan,
+                                     "HELM_WARNING": "first"},
+                                 {"shapes": [], "beacons": [], "flags": ["Go", "Back"],
+                                  "remote_flags": [], "path": "m.moos"}))
+    assert first["track"] == [[1.0, 2.0]] and first["flags"] == {"Go": "nan"}
+    assert first["mission"]["path"] == "m.moos" and "flags" not in first["mission"]
+    second = frames.frame(facts(1.25, {"NAV_X": 1.2, "NAV_Y": 2.0, "Back": "DONE",
+                                       "NAV_WARNING": "second"}))
+    assert second["track"] == [] and "mission" not in second
+    assert second["flags"] == {"Go": "nan", "Back": "DONE"}
+    assert second["alerts"] == ["NAV_WARNING: second", "HELM_WARNING: first"]
+    assert second["poses"]["nav"] == {"x": 1.2, "y": 2.0}
+    third = frames.frame(facts(1.5, {"NAV_X": 1.8, "NAV_Y": 2.0}))
+    assert third["track"] == [[1.8, 2.0]]
+    json.dumps(third, allow_nan=False)
