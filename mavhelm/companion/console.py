@@ -40,6 +40,7 @@ from mavhelm.companion.status import (
     RemoteFlagPosted,
     SenderRefused,
     Severity,
+    Snapshot,
     TaskEnded,
     TaskEvent,
     TaskStarted,
@@ -197,6 +198,9 @@ class StatusConsole(App):
         self._gcs = TokenBucket(GCS_LINES_PER_S)
         self._tunnel_alerts = TokenBucket(TUNNEL_ALERTS_PER_S)
         self._next_snapshot: float | None = None
+        self._snapshot: Snapshot | None = None
+        self._snapshot_payload = b""
+        """The last snapshot sent and its payload: most seconds nothing in it has changed."""
         self.gcs_dropped = 0
 
     def subscriptions(self) -> set[str]:
@@ -226,7 +230,10 @@ class StatusConsole(App):
             return
         if self._next_snapshot is None or now >= self._next_snapshot:
             self._next_snapshot = now + SNAPSHOT_PERIOD_S
-            self.tunnel(encode(self.status.snapshot()))
+            snapshot = self.status.snapshot()
+            if snapshot != self._snapshot:
+                self._snapshot, self._snapshot_payload = snapshot, encode(snapshot)
+            self.tunnel(self._snapshot_payload)
 
     @staticmethod
     def describe(msg: Message) -> str | None:

@@ -212,7 +212,16 @@ class SerialTransport:
         assert self.port is not None
         try:
             waiting = min(len(buffer), self.port.in_waiting)
-            return self.port.readinto(buffer[:waiting]) if waiting else 0
+            if not waiting:
+                return 0
+            # pyserial opened the port non-blocking; one read(2) of what the kernel holds,
+            # without pyserial's select() and copy (two instruments read every tick)
+            got = os.readv(self.port.fileno(), [buffer[:waiting]])
+            if not got:
+                raise OSError(errno.EIO, "the device reported data and then none: unplugged?")
+            return got
+        except BlockingIOError:
+            return 0
         except (serial.SerialException, OSError) as exc:
             raise OSError(errno.EIO, f"serial device failed: {exc}") from None
 

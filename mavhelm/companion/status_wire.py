@@ -99,6 +99,8 @@ class WireError(ValueError):
 
 def _clean(text: str) -> str:
     """Control characters (and lone surrogates) become ``?``: nothing can move a cursor."""
+    if text.isprintable():  # no Cc/Cs character in it: the common case, at C speed
+        return text
     return "".join("?" if unicodedata.category(c) in ("Cc", "Cs") else c for c in text)
 
 

@@ -20,6 +20,7 @@ Tasks never touch the bus: what they want posted goes into an outbox the helm dr
 from __future__ import annotations
 
 import enum
+from collections.abc import Mapping
 from typing import ClassVar, Protocol
 
 from mavhelm.core.bus import Message
@@ -118,6 +119,11 @@ class NavState:
     def time(self, name: str) -> float | None:
         """Data time stamp of the latest value, or None if never heard."""
         return self._times.get(name)
+
+    @property
+    def times(self) -> Mapping[str, float]:
+        """Every variable heard, with the data time of its latest value."""
+        return self._times
 
     @property
     def heading(self) -> float | None:
@@ -302,14 +308,12 @@ class Task:
         As in MOOS, data that went silent before the task started counts: a task woken while
         the navigator is already dead ends at once instead of steering on old data.
         """
-        assert self.start_time is not None
-        silent = []
-        for name in self.needs() if needs is None else needs:
-            t = nav.time(name)
-            since = self.start_time if t is None else t
-            if now - since > STARVATION_S:
-                silent.append(name)
-        return sorted(silent)
+        start = self.start_time
+        assert start is not None
+        times = nav.times
+        silent = [name for name in (self.needs() if needs is None else needs)
+                  if now - times.get(name, start) > STARVATION_S]
+        return sorted(silent) if silent else silent
 
     def step(self, nav: NavState, now: float) -> Votes | None:
         """One online tick: time-out, starvation, then the task's own update.
@@ -331,7 +335,7 @@ class Task:
                 f"task {self.name} starved: no {', '.join(silent)} for {STARVATION_S:g} s",
             )
             return None
-        if any(nav.get(name) is None for name in needs):
+        if not nav.times.keys() >= needs:
             return None
         lost = sorted(name for name in needs if nav.lost(name)) if nav.any_lost else []
         if lost:
