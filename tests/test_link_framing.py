@@ -86,9 +86,14 @@ def test_skimming_changes_only_what_unread_frames_become(parts, cuts) -> None:
 
 
 def _unread_frame(raw: bytes) -> bool:
-    if len(raw) < 10 or raw[0] not in (0xFD, 0xFE) or (raw[0] == 0xFD and raw[2] & ~1):
+    if raw[0] == 0xFD:
+        if len(raw) < 10 or raw[2] & ~1:
+            return False
+        msgid = raw[7] | raw[8] << 8 | raw[9] << 16
+    elif raw[0] == 0xFE and len(raw) >= 6:
+        msgid = raw[5]
+    else:
         return False
-    msgid = raw[7] | raw[8] << 8 | raw[9] << 16 if raw[0] == 0xFD else raw[5]
     return msgid not in WANTED
 
 

@@ -159,6 +159,8 @@ def on_heartbeat(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> Non
         return
     state = bridge.state
     state.last_heartbeat = now
+    if state.vehicle_type != msg.type:
+        bridge.link.decode_only(read_messages(bridge.config, msg.type))
     state.vehicle_type = msg.type
     submarine = msg.type == mavlink.MAV_TYPE_SUBMARINE
     if bridge.config.actuation == "guided" and submarine != isinstance(bridge.actuation,
@@ -390,10 +392,18 @@ def _warn_unsigned(bridge: MavlinkBridge, how: str) -> None:
                         "= true, or MAVProxy `signing setup`) with the key file's passphrase")
 
 
-def read_messages(config: BridgeConfig) -> frozenset[str]:
+SUBMARINE_ONLY = frozenset({"VFR_HUD", "SCALED_PRESSURE"})
+"""Messages whose handlers read something only on ArduSub (its depth)."""
+
+
+def read_messages(config: BridgeConfig, vehicle_type: int | None = None) -> frozenset[str]:
     """Every message the bridge reads (its handlers', and the streams it asks for, which it
-    checks are heard): the link decodes only these."""
-    return frozenset(FROM_AUTOPILOT) | frozenset(TO_COMPANION) | frozenset(config.streams)
+    checks are heard): the link decodes only these. Once the autopilot's type is known, a
+    surface vehicle's link leaves ArduSub's depth messages undecoded."""
+    read = frozenset(FROM_AUTOPILOT) | frozenset(TO_COMPANION)
+    if vehicle_type is not None and vehicle_type != mavlink.MAV_TYPE_SUBMARINE:
+        read -= SUBMARINE_ONLY
+    return read | frozenset(config.streams)
 
 
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
