@@ -162,3 +162,16 @@ def test_depth_from_the_pressure_sensor_once_its_parameters_are_known() -> None:
              mavlink.MAVLink_param_value_message(b"BARO_SPEC_GRAV", 1.024, 9, 1, 1))
     posted = rig.tick(pressure)
     assert posted["BARO_DEPTH"] == [pytest.approx(5.0, abs=0.01)]
+
+
+def test_a_surface_vehicles_link_skims_the_depth_messages_a_subs_decodes() -> None:
+    """Decoding is pymavlink's costliest step: ArduSub's depth messages are decoded only on a
+    submarine (or before the autopilot's type is known)."""
+    vfr = mavlink.MAVLink_vfr_hud_message(0.0, 0.0, 90, 0, -7.9, 0.0)
+    for vehicle, skimmed in ((SUB, 0), (BOAT, 1)):
+        rig = Rig()
+        rig.tick(vfr)
+        assert rig.bridge.link.stats.skimmed == 0, "type unknown: decoded"
+        rig.tick(rig.heartbeat(vehicle, 4))
+        rig.tick(vfr)
+        assert rig.bridge.link.stats.skimmed == skimmed
