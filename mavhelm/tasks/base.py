@@ -321,7 +321,7 @@ class Task:
         A task whose navigation pNav declares lost holds at once (casts no vote, so the helm
         commands zero on its actuators in that same tick) and starves 10 s after the last data.
         """
-        if not self.active:
+        if self.state is not State.ACTIVE:
             return None
         assert self.start_time is not None
         if self.timeout is not None and self.elapsed(now) > self.timeout:

@@ -242,16 +242,17 @@ class Helm(App):
         DESIRED_THRUST = 0) between two legs. The bus delivers the same flags next tick, which
         is harmless, since a task starts only once.
         """
-        stepped: set[int] = set()
+        stepped: set[Task] = set()
         ballots: list[tuple[Task, Votes]] = []
+        nav = self.nav
         while True:
             todo = [t for t in (self._locked() or self._running_tasks())
-                    if t.active and id(t) not in stepped]
+                    if t.active and t not in stepped]
             if not todo:
                 break
+            stepped.update(todo)
             for t in todo:
-                stepped.add(id(t))
-                votes = t.step(self.nav, now)
+                votes = t.step(nav, now)
                 if votes:
                     ballots.append((t, votes))
             listeners = self._listeners()
