@@ -92,7 +92,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final, NamedTuple
 
 import numpy as np
@@ -974,6 +974,25 @@ class EKF:
             self.kf.P[i, i] = sigma * sigma
         if self.i_bias is not None and wander > self.config.yaw_bias_noise:
             self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
+
+    def with_yaw_bias(self) -> EKF:
+        """This filter with a heading-bias state added (at zero, its prior 1-σ, uncorrelated),
+        every other state and its covariance carried over: for an orientation sensor found
+        wandering on a mission that did not declare ``EKF_YAW_BIAS``. A bias that keeps
+        wandering only a state can take out; down-weighting the readings leaves them a share
+        of the heading in proportion to the bias. Itself if it has one already."""
+        if self.i_bias is not None:
+            return self
+        twin = EKF(self.t, 0.0, 0.0, beacons=self.beacons.values(),
+                   config=replace(self.config, estimate_yaw_bias=True))
+        assert twin.i_bias is not None
+        kept = [i if i < twin.i_bias else i + 1 for i in range(self.dim)]
+        twin.kf.x[kept, 0] = self.kf.x[:, 0]
+        twin.kf.P[np.ix_(kept, kept)] = self.kf.P
+        twin.warnings, twin.rate_resets, twin.recoveries = (self.warnings, self.rate_resets,
+                                                             self.recoveries)
+        twin._good = self._good
+        return twin
 
     def _reset_states(self, idx: tuple[int, ...], values: tuple[float, ...],
                       variance: float) -> None:
