@@ -213,7 +213,9 @@ class EKFConfig:
       ``sigma_yaw_rate`` (rad/s) those of the rate states, which start at zero (spec 2.2.4).
     - ``estimate_yaw_bias`` (EKF_YAW_BIAS): add the heading-bias state. Off unless asked for:
       spec 2.2.10 allows it only with a body velocity sensor *and* a position sensor (ranges
-      or GPS); without both it is unobservable and only blurs the heading.
+      or GPS); without both it is unobservable and only blurs the heading. The navigator adds
+      it (:meth:`EKF.with_yaw_bias`) when a doubted heading needs it and the motion makes it
+      observable.
       ``sigma_yaw_bias`` is its initial 1-σ (rad), ``yaw_bias_noise`` its random walk
       (rad/√s: 1e-3 lets it follow a gyro-integrated heading drifting ~0.5°/min).
     - ``estimate_range_scale`` (EKF_RANGE_SCALE): add one range scale factor shared by every

@@ -416,10 +416,8 @@ class Fusion:
         ekf = self.ekf
         assert ekf is not None
         result = ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
+        self._note_coupling(kept)
         for r, verdict in zip(kept, result.verdicts, strict=True):
-            if isinstance(r.obs, BodyVelocity) and (r.obs.forward is not None
-                                                    or r.obs.starboard is not None):
-                self._heading_coupled = True
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
@@ -434,6 +432,11 @@ class Fusion:
         if any(isinstance(r.obs, Range) for r in kept):
             for decision in self.beacon_watch.review(t, ekf):
                 self._decide(decision)
+
+    def _note_coupling(self, kept: list[Reading]) -> None:
+        """A body velocity with a speed ties the heading to the motion for good."""
+        if not self._heading_coupled:
+            self._heading_coupled = any(_has_speed(r.obs) for r in kept)
 
     def _weighted(self, obs: Observation, sensor: str) -> Observation:
         """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`), a
@@ -488,6 +491,7 @@ class Fusion:
         self._decide(Decision(t, HEADING, "the orientation sensor's heading bias is estimated "
                               "from now on (as EKF_YAW_BIAS = true): the motion can tell it "
                               "from the heading"))
+        self._xlog_header = False  # the .xlog's columns change: a new header line
         return self.ekf
 
     def _watch(self, fix: Fix) -> None:
@@ -632,6 +636,12 @@ class Fusion:
         sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
+
+
+def _has_speed(obs: Observation) -> bool:
+    """A body velocity with a forward or starboard speed: it ties the heading to the motion."""
+    return isinstance(obs, BodyVelocity) and (obs.forward is not None
+                                              or obs.starboard is not None)
 
 
 def _channel(obs: Range | Position, sensor: str) -> tuple[str, str]:
