@@ -92,7 +92,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final, NamedTuple
 
 import numpy as np
@@ -213,7 +213,9 @@ class EKFConfig:
       ``sigma_yaw_rate`` (rad/s) those of the rate states, which start at zero (spec 2.2.4).
     - ``estimate_yaw_bias`` (EKF_YAW_BIAS): add the heading-bias state. Off unless asked for:
       spec 2.2.10 allows it only with a body velocity sensor *and* a position sensor (ranges
-      or GPS); without both it is unobservable and only blurs the heading.
+      or GPS); without both it is unobservable and only blurs the heading. The navigator adds
+      it (:meth:`EKF.with_yaw_bias`) when a doubted heading needs it and the motion makes it
+      observable.
       ``sigma_yaw_bias`` is its initial 1-σ (rad), ``yaw_bias_noise`` its random walk
       (rad/√s: 1e-3 lets it follow a gyro-integrated heading drifting ~0.5°/min).
     - ``estimate_range_scale`` (EKF_RANGE_SCALE): add one range scale factor shared by every
@@ -974,6 +976,25 @@ class EKF:
             self.kf.P[i, i] = sigma * sigma
         if self.i_bias is not None and wander > self.config.yaw_bias_noise:
             self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
+
+    def with_yaw_bias(self) -> EKF:
+        """This filter with a heading-bias state added (at zero, its prior 1-σ, uncorrelated),
+        every other state and its covariance carried over: for an orientation sensor found
+        wandering on a mission that did not declare ``EKF_YAW_BIAS``. A bias that keeps
+        wandering only a state can take out; down-weighting the readings leaves them a share
+        of the heading in proportion to the bias. Itself if it has one already."""
+        if self.i_bias is not None:
+            return self
+        twin = EKF(self.t, 0.0, 0.0, beacons=self.beacons.values(),
+                   config=replace(self.config, estimate_yaw_bias=True))
+        assert twin.i_bias is not None
+        kept = [i if i < twin.i_bias else i + 1 for i in range(self.dim)]
+        twin.kf.x[kept, 0] = self.kf.x[:, 0]
+        twin.kf.P[np.ix_(kept, kept)] = self.kf.P
+        twin.warnings, twin.rate_resets, twin.recoveries = (self.warnings, self.rate_resets,
+                                                             self.recoveries)
+        twin._good = self._good
+        return twin
 
     def _reset_states(self, idx: tuple[int, ...], values: tuple[float, ...],
                       variance: float) -> None:

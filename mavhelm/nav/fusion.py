@@ -52,6 +52,7 @@ from mavhelm.nav.ekf import (
 from mavhelm.nav.filter_safety import (
     BOOTED,
     FAILED,
+    HEADING,
     LOST,
     REINITIALISED,
     RESTARTED,
@@ -185,7 +186,13 @@ class Fusion:
         """Everything the navigator decided (spec 2.2.9), in order; ``new_decisions`` this
         step's."""
         self.new_decisions: list[Decision] = []
+        self.ekf_config = config.ekf
+        """The filter's settings, those of every boot: ``config.ekf``, with a heading-bias state
+        once one was added (:meth:`_add_yaw_bias`)."""
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
+        self._heading_coupled = config.fixed_sideslip is not None
+        """Whether the heading moves the position (a sideslip constraint, a body velocity with
+        a speed): then the motion can tell a heading bias from a heading."""
         self.noise = NoiseMatch()
         self.beacon_watch = BeaconWatch()
         self._heading_scale = (1.0, 0.0)
@@ -409,6 +416,7 @@ class Fusion:
         ekf = self.ekf
         assert ekf is not None
         result = ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
+        self._note_coupling(kept)
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
@@ -416,12 +424,19 @@ class Fusion:
             self._check_heading(t, r, verdict.accepted, nis)
             if isinstance(r.obs, Range | Position) and verdict.accepted:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
+        ekf = self.ekf  # a doubt may have given it a bias state
+        assert ekf is not None
         decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
         if decision is not None:
             self._decide(decision)
         if any(isinstance(r.obs, Range) for r in kept):
             for decision in self.beacon_watch.review(t, ekf):
                 self._decide(decision)
+
+    def _note_coupling(self, kept: list[Reading]) -> None:
+        """A body velocity with a speed ties the heading to the motion for good."""
+        if not self._heading_coupled:
+            self._heading_coupled = any(_has_speed(r.obs) for r in kept)
 
     def _weighted(self, obs: Observation, sensor: str) -> Observation:
         """A range or fix with its channel's σ scaled (:mod:`mavhelm.nav.noise_match`), a
@@ -444,22 +459,40 @@ class Fusion:
         """The heading watch on one reading's fate (see :mod:`mavhelm.nav.heading_watch`)."""
         watch, ekf = self.heading_watch, self.ekf
         assert ekf is not None
-        decision = None
-        if isinstance(r.obs, Range | Position):
-            if not accepted:
-                return  # an outlier is the gate's business: a wrong heading shows first
-            decision = watch.position(t, nis)
-            if watch.doubted_at == t:
-                ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
-                if ekf.i_bias is None:
-                    # no bias state to take the error: the heading itself is down-weighted
-                    scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE,
-                                HEADING_MAX_SCALE)
-                    self._heading_scale = (scale, t + WANDER_TIME)
-        elif isinstance(r.obs, Yaw):
+        if isinstance(r.obs, Yaw):
             decision = watch.heading(t, r.sensor.name, accepted)
+            if decision is not None:
+                self._decide(decision)
+            return
+        if not isinstance(r.obs, Range | Position) or not accepted:
+            return  # an outlier is the gate's business: a wrong heading shows first
+        decision = watch.position(t, nis)
         if decision is not None:
             self._decide(decision)
+        if watch.doubted_at != t:
+            return
+        if ekf.i_bias is None and self._heading_coupled:
+            ekf = self._add_yaw_bias(t)
+        ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+        if ekf.i_bias is None:
+            # nothing tells a bias from a heading: the heading itself is down-weighted
+            scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE, HEADING_MAX_SCALE)
+            self._heading_scale = (scale, t + WANDER_TIME)
+
+    def _add_yaw_bias(self, t: float) -> EKF:
+        """A doubted heading on a filter without a bias state, where the motion makes one
+        observable: the state is added (and kept by every later boot), so the position data
+        take a wandering bias out of the heading instead of sharing it."""
+        assert self.ekf is not None
+        self.ekf = self.ekf.with_yaw_bias()
+        self.ekf_config = self.ekf.config
+        self.heading_watch.estimates_bias = True
+        self._heading_scale = (1.0, 0.0)
+        self._decide(Decision(t, HEADING, "the orientation sensor's heading bias is estimated "
+                              "from now on (as EKF_YAW_BIAS = true): the motion can tell it "
+                              "from the heading"))
+        self._xlog_header = False  # the .xlog's columns change: a new header line
+        return self.ekf
 
     def _watch(self, fix: Fix) -> None:
         """The LSQ's checks of the EKF (spec 2.2.9) on one fix: a failure raises, a
@@ -509,7 +542,7 @@ class Fusion:
     def _boot_at_start(self, t: float) -> None:
         s = self.config.start
         assert s is not None
-        self.ekf = EKF(t, s.x, s.y, s.yaw, beacons=self.config.beacons, config=self.config.ekf,
+        self.ekf = EKF(t, s.x, s.y, s.yaw, beacons=self.config.beacons, config=self.ekf_config,
                        sigma_xy=s.sigma_xy, sigma_yaw=s.sigma_yaw)
         if self.ekf.i_z is not None:
             self.ekf.x[self.ekf.i_z, 0] = s.z
@@ -522,7 +555,7 @@ class Fusion:
         if not self.config.beacons:
             for r in readings:
                 if isinstance(r.obs, Position):
-                    self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, config=self.config.ekf,
+                    self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, config=self.ekf_config,
                                    sigma_xy=max(2.0 * r.obs.sigma, 1.0), sigma_yaw=sigma_yaw)
                     self._decide(Decision(t, BOOTED, f"EKF started at the first "
                                           f"{r.sensor.name} fix ({r.obs.x:.1f}, "
@@ -541,7 +574,7 @@ class Fusion:
         if self.lsq is not None and self.lsq.estimate_offset:
             beacons = [Beacon(b.name, b.x, b.y, b.z, b.offset + fix.offset, b.turnaround)
                        for b in beacons]
-        self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.config.ekf,
+        self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.ekf_config,
                        sigma_xy=max(fix.sigma, fix.rms, BOOT_SIGMA), sigma_yaw=sigma_yaw)
         self.boot_fix = fix
         self._decide(Decision(t, BOOTED, f"EKF booted from the LSQ at ({fix.x:.1f}, "
@@ -603,6 +636,12 @@ class Fusion:
         sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
+
+
+def _has_speed(obs: Observation) -> bool:
+    """A body velocity with a forward or starboard speed: it ties the heading to the motion."""
+    return isinstance(obs, BodyVelocity) and (obs.forward is not None
+                                              or obs.starboard is not None)
 
 
 def _channel(obs: Range | Position, sensor: str) -> tuple[str, str]:
