@@ -322,9 +322,10 @@ class SkimmingParser(mavlink.MAVLink):
         return super().decode(msgbuf)
 
     def parse_buffer(self, s: bytes) -> list[mavlink.MAVLink_message]:  # type: ignore[override]
-        buf = self.buf
-        if self.buf_index:
-            del buf[:self.buf_index]
+        buf: bytearray = self.buf
+        start: int = self.buf_index  # type: ignore[has-type]
+        if start:
+            del buf[:start]
             self.buf_index = 0
         buf += s
         self.total_bytes_received += len(s)
