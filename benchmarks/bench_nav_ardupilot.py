@@ -73,6 +73,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavhelm.companion.alog import read_alog
@@ -395,6 +396,27 @@ def tick_period(log: Log, t0: float, t1: float) -> str:
     return f"median {np.median(p):.3f} s, p99 {np.percentile(p, 99):.3f} s"
 
 
+def gps_fix_age(folder: Path) -> float | None:
+    """How old GPS_RAW_INT's fix is when the companion gets it (s, median): the autopilot's
+    clock (the newest time_boot_ms heard on the link, from the companion's .tlog) less the
+    fix's time_usec (ArduPilot: its boot time of the fix). None without a .tlog."""
+    tlogs = sorted(folder.glob("*.tlog"))
+    if not tlogs:
+        return None
+    link = mavutil.mavlink_connection(str(tlogs[0]))
+    boot_ms, ages = None, []
+    try:
+        while (msg := link.recv_match(blocking=False)) is not None:
+            if msg.get_type() == "GPS_RAW_INT":
+                if boot_ms is not None and msg.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX:
+                    ages.append(boot_ms / 1000.0 - msg.time_usec / 1e6)
+            elif (ms := getattr(msg, "time_boot_ms", None)) is not None:
+                boot_ms = max(boot_ms or 0, ms)
+    finally:
+        link.close()
+    return float(np.median(ages)) if ages else None
+
+
 def gps_fixes_used(folder: Path, t0: float, t1: float) -> int | None:
     """GPS fixes the live pNav took into its filter (accepted or rejected) in [t0, t1], from
     its .olog; None when there is no .olog."""
@@ -513,10 +535,12 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   pNav    (NAV_X/Y)    vs truth: {nav}")
     print(f"   pNav EKF (EKF_X/Y)   vs truth: {ekf}")
     print(f"   pNav EKF NEES (2 dof): {log.nees(t0, t1)}")
-    print(f"     GPS_X/Y stamped {lateness(log, 'GPS', t0, t1):.2f} s after the truth's "
-          f"time (the SITL's GPS lag, SIM_GPS1_LAG_MS, and GPS_RAW_INT's phase against the "
-          f"5 Hz fixes), NAV_X/Y {lateness(log, 'NAV', t0, t1):.2f} s: EKF_TIME_SIGMA "
-          f"{TIME_SIGMA_NOISE:g} s declares it")
+    age = gps_fix_age(folder / "companion")
+    print(f"     GPS_X/Y stamped {lateness(log, 'GPS', t0, t1):.2f} s after the truth's time "
+          f"(the SITL's GPS lag, 0.1 s, plus GPS_RAW_INT's age on arrival, "
+          f"{'n/a' if age is None else f'{age:.2f}'} s: the 5 Hz stream's phase against the "
+          f"5 Hz fixes), NAV_X/Y {lateness(log, 'NAV', t0, t1):.2f} s; EKF_TIME_SIGMA "
+          f"{TIME_SIGMA_NOISE:g} s")
     print(f"   ArduPilot EKF3 (AP_X/Y, GLOBAL_POSITION_INT) vs truth: {ap}")
     posted = int(np.sum((log.get("GPS_X")[0] >= t0) & (log.get("GPS_X")[0] <= t1)))
     used = gps_fixes_used(folder / "companion", t0, t1)
