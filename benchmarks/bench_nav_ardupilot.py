@@ -126,12 +126,7 @@ BEACONS = tuple((int(b.id), b.x, b.y, b.z) for b in RIG_BEACONS)
 """The simulator tests' three radio beacons, as (id, x, y, z)."""
 M_PER_DEG_LAT = 111_194.93             # the SITL's spherical earth (6371 km)
 
-TIME_SIGMA_NOISE = 0.2
-"""The noise mission's EKF_TIME_SIGMA: GPS_RAW_INT's fixes reach the companion 0.14-0.20 s
-after the truth they measured (seven runs of both experiments, 0.03-0.1 s spread within a
-run: the SITL's GPS lag plus the stream's phase against the fixes); the published position
-must cover that lateness times the speed (the default 0.1 s suits the serial instruments)."""
-NAV_NOISE = f"""\
+NAV_NOISE = """\
     X       = EKF @ 2
     Y       = EKF @ 2
     Speed   = EKF @ 2
@@ -141,7 +136,6 @@ NAV_NOISE = f"""\
     FIXEDSIDESLIP      = 0 @ 0.3
     EKF_XY_DYNAMICS    = 3
     EKF_YAW_BIAS       = true
-    EKF_TIME_SIGMA     = {TIME_SIGMA_NOISE:g}
 """
 GYRO = "    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5\n"
 
@@ -539,8 +533,8 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"     GPS_X/Y stamped {lateness(log, 'GPS', t0, t1):.2f} s after the truth's time "
           f"(the SITL's GPS lag, 0.1 s, plus GPS_RAW_INT's age on arrival, "
           f"{'n/a' if age is None else f'{age:.2f}'} s: the 5 Hz stream's phase against the "
-          f"5 Hz fixes), NAV_X/Y {lateness(log, 'NAV', t0, t1):.2f} s; EKF_TIME_SIGMA "
-          f"{TIME_SIGMA_NOISE:g} s")
+          f"5 Hz fixes, which pNav moves the fix on by: GPS_AGE), NAV_X/Y "
+          f"{lateness(log, 'NAV', t0, t1):.2f} s (EKF_TIME_SIGMA, 0.1 s, covers it)")
     print(f"   ArduPilot EKF3 (AP_X/Y, GLOBAL_POSITION_INT) vs truth: {ap}")
     posted = int(np.sum((log.get("GPS_X")[0] >= t0) & (log.get("GPS_X")[0] <= t1)))
     used = gps_fixes_used(folder / "companion", t0, t1)
