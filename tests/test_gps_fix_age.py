@@ -1,7 +1,8 @@
-"""A GPS fix's age on arrival: the bridge posts ``GPS_AGE`` from GPS_RAW_INT's time_usec
-against the autopilot's clock, and pNav moves an XY fix on by its ``S_AGE`` along the
-filter's velocity, so a boat's estimate no longer trails it by the age times its speed (on the
-real SITL GPS_RAW_INT's fix was 0.06-0.18 s old, the same all run long)."""
+"""Late data: the bridge posts ``GPS_AGE`` from GPS_RAW_INT's time_usec against the
+autopilot's clock, and pNav moves an XY fix on by its ``S_AGE`` along the filter's velocity,
+so a boat's estimate no longer trails it by the age times its speed (on the real SITL
+GPS_RAW_INT's fix was 0.06-0.18 s old, the same all run long); a heading stamped late in a
+turn is trusted the less the faster it turns."""
 
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
+from mavhelm.nav.ekf import I_VH, EKFConfig, Yaw
+from mavhelm.nav.fusion import Fusion, FusionConfig, Start
 from mavhelm.nav.navigator import Navigator
 from mavhelm.nav.sensors import SensorReader, SensorSpec
 from tests.support.ports import free_udp_port
@@ -119,3 +122,15 @@ def test_a_fix_moved_on_by_its_age_leaves_the_estimate_on_the_vehicle() -> None:
     moved = _trail(0.18)
     assert trailing == pytest.approx(-0.54, abs=0.05)  # 0.18 s at 3 m/s behind
     assert math.isclose(moved, 0.0, abs_tol=0.05)
+
+
+def test_a_heading_in_a_turn_is_widened_by_the_lateness_times_the_turn_rate() -> None:
+    fusion = Fusion(FusionConfig(ekf=EKFConfig(time_sigma=0.1), lsq_timeout=None,
+                                 start=Start(0.0, 0.0, 0.0, 2.0, math.radians(5.0))))
+    fusion.step(0.0)
+    assert fusion.ekf is not None
+    compass = Yaw(0.0, 0.0, math.radians(0.5))
+    assert fusion._weighted(compass, "compass").sigma == compass.sigma  # not turning
+    fusion.ekf.x[I_VH, 0] = math.radians(15.0)  # 15 deg/s, stamped 0.1 s late: 1.5 deg off
+    widened = fusion._weighted(compass, "compass").sigma
+    assert math.degrees(widened) == pytest.approx(math.hypot(0.5, 1.5))
