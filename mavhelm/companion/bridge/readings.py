@@ -22,6 +22,8 @@ WHEEL_MAX_DISTANCE = 1e9
 WHEEL_MAX_INTERVAL_S = 5.0
 """A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
 MAX_FIX_AGE = 1.0
+BOOT_CLOCK_RESOLUTION = 1e-3
+"""s: time_boot_ms's step, within which a fix a hair younger than the clock is new."""
 """s: a GPS fix older than this on arrival is a time_usec on another clock, not an age."""
 
 
@@ -84,4 +86,6 @@ def fix_age(boot_s: float | None, time_usec: int) -> float | None:
     if boot_s is None or time_usec <= 0:
         return None
     age = boot_s - time_usec / 1e6
+    if -BOOT_CLOCK_RESOLUTION <= age < 0.0:
+        return 0.0  # the fix sent the millisecond it was made
     return age if 0.0 <= age <= MAX_FIX_AGE else None
