@@ -188,7 +188,7 @@ def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     _check_distance(bridge, x, y)
     post("GPS_X", x)
     post("GPS_Y", y)
-    age = fix_age(bridge.state.autopilot_clock(now), msg.time_usec)
+    age = fix_age(bridge.state.boot_s, msg.time_usec)
     if age is not None:
         post("GPS_AGE", age)
     if msg.vel != UNKNOWN_U16:
@@ -438,10 +438,9 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     bridge.state.heard.add(kind)
     time_boot_ms = getattr(msg, "time_boot_ms", None)
     if time_boot_ms is not None:
-        boot_s = boot_seconds(time_boot_ms)
-        bridge.state.observe_boot(now, boot_s)
+        bridge.state.boot_s = boot_seconds(time_boot_ms)
         if bridge.time_source is not None:
-            bridge.time_source(boot_s)
+            bridge.time_source(bridge.state.boot_s)
     handler = FROM_AUTOPILOT.get(kind)
     if handler is None:
         return

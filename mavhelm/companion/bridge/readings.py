@@ -22,8 +22,9 @@ WHEEL_MAX_DISTANCE = 1e9
 WHEEL_MAX_INTERVAL_S = 5.0
 """A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
 MAX_FIX_AGE = 1.0
-BOOT_CLOCK_RESOLUTION = 1e-3
-"""s: time_boot_ms's step, within which a fix a hair younger than the clock is new."""
+MAX_CLOCK_STEP = 0.5
+"""s: a fix this much newer than the latest time_boot_ms is on another clock (the autopilot
+streams a message with its clock several times a second)."""
 """s: a GPS fix older than this on arrival is a time_usec on another clock, not an age."""
 
 
@@ -78,14 +79,15 @@ class WheelOdometry:
 
 
 def fix_age(boot_s: float | None, time_usec: int) -> float | None:
-    """How old a GPS fix is on arrival (s): the autopilot's clock less the fix's time_usec,
-    which ArduPilot sends as its own boot time of the fix. The stream is not in step with
-    the receiver, so a 5 Hz GPS_RAW_INT carries a fix 0-0.2 s old, the same all run long;
-    pNav moves the fix on by it. None when time_usec is not on that clock (0, UNIX time):
-    outside [0, MAX_FIX_AGE]."""
+    """How old a GPS fix is on arrival (s), at least: the autopilot's clock in the latest
+    message that carried it (the fix was sent no earlier) less the fix's time_usec, which
+    ArduPilot sends as its own boot time of the fix. The stream is not in step with the
+    receiver, so a 5 Hz GPS_RAW_INT carries a fix 0-0.2 s old, the same all run long; pNav
+    moves the fix on by it. A fix newer than that clock came before the next message that
+    would have told the time: 0. None when time_usec is not on that clock (0, UNIX time)."""
     if boot_s is None or time_usec <= 0:
         return None
     age = boot_s - time_usec / 1e6
-    if -BOOT_CLOCK_RESOLUTION <= age < 0.0:
-        return 0.0  # the fix sent the millisecond it was made
+    if -MAX_CLOCK_STEP <= age < 0.0:
+        return 0.0
     return age if 0.0 <= age <= MAX_FIX_AGE else None

@@ -7,10 +7,6 @@ from dataclasses import dataclass, field
 
 from mavhelm.companion.actuation import AutopilotView
 
-BOOT_OFFSET_STEP = 1.0
-"""s: an offset between the clocks this much larger than the least is a new clock (the
-autopilot rebooted, the companion's clock was set), taken as it is."""
-
 
 @dataclass
 class AutopilotState:
@@ -37,21 +33,10 @@ class AutopilotState:
     """The autopilot's HEARTBEATs without a valid signature on this connection."""
     guests: dict[str, tuple[int, int]] = field(default_factory=dict)
     """job@client → (system, component) of guests that asked over MAVLink."""
-    boot_offset: float | None = None
-    """The bridge's clock less the autopilot's (s since boot), the least over the messages
-    that carried ``time_boot_ms`` (latency only adds to it): the autopilot's clock at any
-    arrival, whatever order a batch's messages come in, for a GPS fix's age."""
-
-    def observe_boot(self, now: float, boot_s: float) -> None:
-        """A message sent at ``boot_s`` on the autopilot's clock arrived at ``now``."""
-        offset = now - boot_s
-        if self.boot_offset is None or offset < self.boot_offset \
-                or offset > self.boot_offset + BOOT_OFFSET_STEP:
-            self.boot_offset = offset
-
-    def autopilot_clock(self, now: float) -> float | None:
-        """The autopilot's clock (s since boot) at ``now``; None before it is heard."""
-        return None if self.boot_offset is None else now - self.boot_offset
+    boot_s: float | None = None
+    """The autopilot's clock (s since boot) in the latest message that carried one: a
+    message on the link was sent no earlier, so a GPS fix is at least that clock less its
+    time_usec old."""
 
     def forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts."""
@@ -62,4 +47,4 @@ class AutopilotState:
         self.signing_sent = False
         self.unsigned_heartbeats = 0
         self.view = AutopilotView()
-        self.boot_offset = None
+        self.boot_s = None
