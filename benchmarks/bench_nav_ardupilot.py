@@ -374,6 +374,16 @@ def lateness(log: Log, prefix: str, t0: float, t1: float) -> float:
     return float(shifts[int(np.argmin(mse))])
 
 
+def lateness_report(log: Log, folder: Path, t0: float, t1: float) -> str:
+    """The GPS's and NAV's lateness against the truth, and the fix's age on arrival."""
+    age = gps_fix_age(folder)
+    return (f"     GPS_X/Y stamped {lateness(log, 'GPS', t0, t1):.2f} s after the truth's time "
+            f"(the SITL's GPS lag, 0.1 s, plus GPS_RAW_INT's age on arrival, "
+            f"{'n/a' if age is None else f'{age:.2f}'} s: the 5 Hz stream's phase against "
+            f"the 5 Hz fixes, which pNav moves the fix on by: GPS_AGE), NAV_X/Y "
+            f"{lateness(log, 'NAV', t0, t1):.2f} s (EKF_TIME_SIGMA, 0.1 s, covers it)")
+
+
 def derivative(t: np.ndarray, v: np.ndarray, half_window: float) -> tuple[np.ndarray,
                                                                           np.ndarray]:
     """Central difference over ±half_window (samples with the same stamp collapse first)."""
@@ -543,12 +553,7 @@ def run_noise(binary: Path, folder: Path, args: argparse.Namespace) -> None:
     print(f"   pNav    (NAV_X/Y)    vs truth: {nav}")
     print(f"   pNav EKF (EKF_X/Y)   vs truth: {ekf}")
     print(f"   pNav EKF NEES (2 dof): {log.nees(t0, t1)}")
-    age = gps_fix_age(folder / "companion")
-    print(f"     GPS_X/Y stamped {lateness(log, 'GPS', t0, t1):.2f} s after the truth's time "
-          f"(the SITL's GPS lag, 0.1 s, plus GPS_RAW_INT's age on arrival, "
-          f"{'n/a' if age is None else f'{age:.2f}'} s: the 5 Hz stream's phase against the "
-          f"5 Hz fixes, which pNav moves the fix on by: GPS_AGE), NAV_X/Y "
-          f"{lateness(log, 'NAV', t0, t1):.2f} s (EKF_TIME_SIGMA, 0.1 s, covers it)")
+    print(lateness_report(log, folder / "companion", t0, t1))
     print(f"   ArduPilot EKF3 (AP_X/Y, GLOBAL_POSITION_INT) vs truth: {ap}")
     posted = int(np.sum((log.get("GPS_X")[0] >= t0) & (log.get("GPS_X")[0] <= t1)))
     used = gps_fixes_used(folder / "companion", t0, t1)
