@@ -69,7 +69,8 @@ from mavhelm.nav.ekf import (
 
 MAX_FIX_AGE: Final = 1.0
 """s: an XY fix's ``S_AGE`` beyond this (or below 0) is not believed; the fix is taken as
-stamped. Moving a fix on by more than a second of dead reckoning would add its error."""
+stamped. Moving a fix on by more than a second of dead reckoning would add its error, and a
+GPS_RAW_INT older than this is a time_usec on another clock (the bridge posts no age)."""
 
 SENSOR_TYPES: Final = ("XY", "ORIENTATION", "DEPTH", "ALTITUDE", "BODY_VEL", "LBL", "RANGE")
 

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavhelm.nav.sensors import MAX_FIX_AGE
+
 UNKNOWN_U16 = 65535
 """A MAVLink uint16 field's "unknown"."""
 
@@ -21,11 +23,9 @@ WHEEL_MAX_DISTANCE = 1e9
 """m: a cumulative wheel distance beyond this is garbage."""
 WHEEL_MAX_INTERVAL_S = 5.0
 """A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
-MAX_FIX_AGE = 1.0
 MAX_CLOCK_STEP = 0.5
 """s: a fix this much newer than the latest time_boot_ms is on another clock (the autopilot
 streams a message with its clock several times a second)."""
-"""s: a GPS fix older than this on arrival is a time_usec on another clock, not an age."""
 
 
 def distance_reading(msg: mavlink.MAVLink_distance_sensor_message) -> float | None:
