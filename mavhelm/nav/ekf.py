@@ -234,11 +234,12 @@ class EKFConfig:
       the filter is lost (:class:`PositionLost`).
     - ``mobile`` (EKF_MOBILE): False for a static vehicle (spec 2.2.2): no rate states, the
       pose a random walk of the dynamics' strength.
-    - ``time_sigma`` (s, EKF_TIME_SIGMA): 1-σ of the data's lateness. Readings are stamped
+    - ``time_sigma`` (s, EKF_TIME_SIGMA): RMS of the data's lateness. Readings are stamped
       when they arrive, a link's latency after they were true: the state the filter holds is
       the vehicle's a little while ago, and the published position covariance
       (:meth:`EKF.position_covariance`) adds that uncertainty along the velocity. It stays out
-      of the filter: a bias shared by every reading is no noise to average.
+      of the position: a bias shared by every reading is no noise to average; in a turn a
+      heading is widened by it (``Fusion._turning``).
     - ``velocity_follows_heading``: the prediction turns the velocity with the yaw rate
       (a hull that moves along its bow, as ``FIXEDSIDESLIP`` declares): the spec's uncoupled
       model otherwise keeps the old course through a turn, and the sideslip constraint then

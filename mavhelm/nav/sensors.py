@@ -16,7 +16,8 @@ z up; metres) and turned by ``twist`` degrees clockwise about the body z axis, w
 What each type reads (``S`` is the source) and the unit of its noise:
 
 ============  ==========================================================  ================
-XY            ``S_X``, ``S_Y`` posted with the same time stamp (m)           m
+XY            ``S_X``, ``S_Y`` posted with the same time stamp (m); with     m
+              them ``S_AGE`` (s), if posted: how old the fix was on arrival
 ORIENTATION   ``S_YAW`` (rad, yaw = −heading), else ``S_HEADING`` (deg)      deg
 DEPTH         ``S_DEPTH`` (m below the surface)                              m
 ALTITUDE      ``S_ALTITUDE`` (m above the bottom; not fused: no seabed       m
@@ -65,6 +66,11 @@ from mavhelm.nav.ekf import (
     Tide,
     Yaw,
 )
+
+MAX_FIX_AGE: Final = 1.0
+"""s: an XY fix's ``S_AGE`` beyond this (or below 0) is not believed; the fix is taken as
+stamped. Moving a fix on by more than a second of dead reckoning would add its error, and a
+GPS_RAW_INT older than this is a time_usec on another clock (the bridge posts no age)."""
 
 SENSOR_TYPES: Final = ("XY", "ORIENTATION", "DEPTH", "ALTITUDE", "BODY_VEL", "LBL", "RANGE")
 
@@ -294,6 +300,9 @@ class Reading:
     obs: Observation
     channel: str = ""
     raw: float = math.nan
+    age: float = 0.0
+    """How old an XY fix already was when stamped (s, ``S_AGE``): the filter moves it on by
+    this along its velocity (:meth:`Fusion._brought_forward`)."""
 
 
 class SensorReader:
@@ -320,7 +329,7 @@ class SensorReader:
     def _variables(self, sensor: SensorSpec) -> list[tuple[str, str, str]]:
         s = sensor.source
         if sensor.type == "XY":
-            return [(f"{s}_X", "x", ""), (f"{s}_Y", "y", "")]
+            return [(f"{s}_X", "x", ""), (f"{s}_Y", "y", ""), (f"{s}_AGE", "age", "")]
         if sensor.type == "ORIENTATION":
             return [(f"{s}_YAW", "yaw", ""), (f"{s}_HEADING", "heading", "")]
         if sensor.type == "DEPTH":
@@ -388,8 +397,10 @@ class SensorReader:
             if "x" not in values or "y" not in values:
                 self.incomplete += 1
                 return None
+            age = values.get("age", 0.0)
             return Reading(sensor, Position(t, values["x"], values["y"], sensor.sigma(),
-                                            sensor.lever))
+                                            sensor.lever),
+                           age=age if 0.0 <= age <= MAX_FIX_AGE else 0.0)
         if sensor.type == "ORIENTATION":
             if "yaw" in values:
                 yaw = values["yaw"]

@@ -60,10 +60,10 @@ EKF_MOBILE = Param("EKF_MOBILE", Boolean(), True, "", "false: a static vehicle (
 EKF_LAG = Param("EKF_LAG", Number(0.0, 4.0), 0.0, "s", "run the EKF this far behind time "
                 "(spec 2.2.7; the LBL listen window); the original's default is 2 s, mavhelm's "
                 "0 as nothing lags without LBL", attr="ekf_lag")
-EKF_TIME_SIGMA = Param("EKF_TIME_SIGMA", Number(0.0, 2.0), 0.1, "s", "1-σ of how late the "
-                       "data are stamped (serial and link latency): the published position "
-                       "is uncertain by this times the speed along the track",
-                       attr="ekf_time_sigma")
+EKF_TIME_SIGMA = Param("EKF_TIME_SIGMA", Number(0.0, 2.0), 0.1, "s", "RMS of how late the "
+                       "data are stamped (serial and link latency, a GPS's own lag): the "
+                       "published position is uncertain by this times the speed along the "
+                       "track, a heading by this times the turn rate", attr="ekf_time_sigma")
 EKF_YAW_BIAS = Param("EKF_YAW_BIAS", Boolean(), False, "", "estimate the orientation sensors' "
                      "heading bias (needs a BODY_VEL and a position sensor, spec 2.2.10)",
                      attr="ekf_yaw_bias", aliases=(Alias("EKF_ESTIMATE_YAW_BIAS"),))

@@ -22,7 +22,8 @@ What the autopilot's telemetry becomes (local frame of the mission's origin: X e
 HEARTBEAT             ``AP_MODE`` (the mode's name in the table of the HEARTBEAT's type:
                       ArduSub's for a submarine, else Rover's), ``AP_ARMED`` 1/0
 GPS_RAW_INT           ``GPS_FIX``; with a 3-D fix ``GPS_X``, ``GPS_Y`` (m), ``GPS_SPEED``
-                      (m/s), ``GPS_HEADING`` (deg, course over ground)
+                      (m/s), ``GPS_HEADING`` (deg, course over ground), ``GPS_AGE`` (s, how
+                      old the fix is on arrival, when time_usec is the autopilot's clock)
 ATTITUDE              ``INS_YAW`` (rad, yaw = −heading), ``INS_HEADING`` (deg),
                       ``INS_PITCH``, ``INS_ROLL`` (rad), ``INS_YAW_VEL`` (rad/s)
 GLOBAL_POSITION_INT   ``AP_X``, ``AP_Y`` (m), ``AP_SPEED`` (m/s), ``AP_HEADING`` (deg),

@@ -18,7 +18,12 @@ from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS, SUB_PRESSURE_PARAMS, SubGuided
 from mavhelm.companion.bridge.config import BridgeConfig, make_actuation
-from mavhelm.companion.bridge.readings import DOWNWARD, UNKNOWN_U16, distance_reading
+from mavhelm.companion.bridge.readings import (
+    DOWNWARD,
+    UNKNOWN_U16,
+    distance_reading,
+    fix_age,
+)
 from mavhelm.companion.mode_request import modes_for
 from mavhelm.companion.signing import send_setup_signing, signature
 from mavhelm.core.clock import boot_seconds
@@ -183,6 +188,9 @@ def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     _check_distance(bridge, x, y)
     post("GPS_X", x)
     post("GPS_Y", y)
+    age = fix_age(bridge.state.boot_s, msg.time_usec)
+    if age is not None:
+        post("GPS_AGE", age)
     if msg.vel != UNKNOWN_U16:
         post("GPS_SPEED", msg.vel / 100.0)
     if msg.cog != UNKNOWN_U16:
@@ -429,8 +437,10 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
         return
     bridge.state.heard.add(kind)
     time_boot_ms = getattr(msg, "time_boot_ms", None)
-    if time_boot_ms is not None and bridge.time_source is not None:
-        bridge.time_source(boot_seconds(time_boot_ms))
+    if time_boot_ms is not None:
+        bridge.state.boot_s = boot_seconds(time_boot_ms)
+        if bridge.time_source is not None:
+            bridge.time_source(bridge.state.boot_s)
     handler = FROM_AUTOPILOT.get(kind)
     if handler is None:
         return

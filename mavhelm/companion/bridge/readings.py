@@ -1,5 +1,6 @@
 """Sensor messages whose value needs more than a unit change: rangefinder readings that may
-mean "nothing seen", and wheel distances that become a speed only between two messages."""
+mean "nothing seen", wheel distances that become a speed only between two messages, and a GPS
+fix's age on arrival."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ import math
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavhelm.nav.sensors import MAX_FIX_AGE
 
 UNKNOWN_U16 = 65535
 """A MAVLink uint16 field's "unknown"."""
@@ -20,6 +23,9 @@ WHEEL_MAX_DISTANCE = 1e9
 """m: a cumulative wheel distance beyond this is garbage."""
 WHEEL_MAX_INTERVAL_S = 5.0
 """A mean over a longer gap is not the vehicle's speed now: the clock starts again instead."""
+MAX_CLOCK_STEP = 0.5
+"""s: a fix this much newer than the latest time_boot_ms is on another clock (the autopilot
+streams a message with its clock several times a second)."""
 
 
 def distance_reading(msg: mavlink.MAVLink_distance_sensor_message) -> float | None:
@@ -70,3 +76,18 @@ class WheelOdometry:
         if abs(speed) > WHEEL_MAX_SPEED:
             raise ValueError(f"wheel speed {speed:.1f} m/s in {dt:g} s: a counter jumped")
         return speed
+
+
+def fix_age(boot_s: float | None, time_usec: int) -> float | None:
+    """How old a GPS fix is on arrival (s), at least: the autopilot's clock in the latest
+    message that carried it (the fix was sent no earlier) less the fix's time_usec, which
+    ArduPilot sends as its own boot time of the fix. The stream is not in step with the
+    receiver, so a 5 Hz GPS_RAW_INT carries a fix 0-0.2 s old, the same all run long; pNav
+    moves the fix on by it. A fix newer than that clock came before the next message that
+    would have told the time: 0. None when time_usec is not on that clock (0, UNIX time)."""
+    if boot_s is None or time_usec <= 0:
+        return None
+    age = boot_s - time_usec / 1e6
+    if -MAX_CLOCK_STEP <= age < 0.0:
+        return 0.0
+    return age if 0.0 <= age <= MAX_FIX_AGE else None

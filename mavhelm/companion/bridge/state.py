@@ -33,6 +33,10 @@ class AutopilotState:
     """The autopilot's HEARTBEATs without a valid signature on this connection."""
     guests: dict[str, tuple[int, int]] = field(default_factory=dict)
     """job@client → (system, component) of guests that asked over MAVLink."""
+    boot_s: float | None = None
+    """The autopilot's clock (s since boot) in the latest message that carried one: a
+    message on the link was sent no earlier, so a GPS fix is at least that clock less its
+    time_usec old."""
 
     def forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts."""
@@ -43,3 +47,4 @@ class AutopilotState:
         self.signing_sent = False
         self.unsigned_heartbeats = 0
         self.view = AutopilotView()
+        self.boot_s = None
