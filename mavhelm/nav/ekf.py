@@ -476,8 +476,7 @@ _Row = tuple[float, float, list[tuple[int, float]], float, bool]
 pairs, variance, whether it is an angle (its residual wraps)."""
 
 
-@dataclass
-class _Slice:
+class _Slice(NamedTuple):
     """The observations of one time slice stacked: residuals, Jacobian, noise, and where each
     observation's rows start (``first[k]:first[k + 1]``)."""
 
@@ -485,6 +484,8 @@ class _Slice:
     H: np.ndarray
     r: np.ndarray
     first: list[int]
+    residuals: list[float]
+    """``y`` as floats."""
 
 
 class EKF:
@@ -538,7 +539,12 @@ class EKF:
         self._F = np.eye(self.dim)
         """The prediction's transition matrix, rewritten in place: only the dt entries change."""
         self._q_cells, self._q_blocks = self._noise_cells()
-        self._q_dt, self._q_values = 0.0, np.zeros(0)
+        self._q_dt, self._q_dense = 0.0, np.zeros((self.dim, self.dim))
+        self._q_block = white_noise_block(0.0)
+        """The last step's Q as a full matrix and its white-noise coefficients: a steady tick
+        has the same step, so the same Q."""
+        self._f_dt: float | None = None
+        """The step ``_F``'s rate cells hold."""
         self._rate_of = list(zip(self._pairs[0].tolist(), self._pairs[1].tolist(), strict=True))
         """(position, rate) index pairs of the constant-velocity model."""
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
@@ -687,7 +693,8 @@ class EKF:
         F = self._F
         mobile = self.config.mobile
         follows = mobile and self.config.velocity_follows_heading
-        if mobile:
+        if mobile and dt != self._f_dt:
+            self._f_dt = dt
             for i, j in self._rate_of:
                 F[i, j] = dt
         if follows:
@@ -705,12 +712,18 @@ class EKF:
             kf.x = np.dot(F, kf.x)
         kf.P = np.dot(np.dot(F, kf.P), F.T)  # F P Fᵀ: np.dot is ``@`` at half the call cost
         if dt > 0:
-            pp, pv, _, vv = white_noise_block(dt)
             if dt != self._q_dt:  # the same step as last time (a steady tick): the same Q
                 self._q_dt = dt
-                self._q_values = np.dot(np.array((pp, pv, vv, dt)), self._q_blocks)
-            kf.P.reshape(-1)[self._q_cells] += self._q_values
+                self._q_block = white_noise_block(dt)
+                pp, pv, _, vv = self._q_block
+                self._q_dense = np.zeros((self.dim, self.dim))
+                self._q_dense.reshape(-1)[self._q_cells] = np.dot(np.array((pp, pv, vv, dt)),
+                                                                   self._q_blocks)
+            # Q added whole: its zero cells leave P's as they are (x + 0 = x), one call
+            # instead of an indexed read-add-write
+            kf.P += self._q_dense
             if follows:
+                pp, pv, _, vv = self._q_block
                 self._along_track_noise(kf.P, pp, pv, vv)
             if self._wander is not None and self.i_bias is not None:
                 extra, until = self._wander
@@ -726,16 +739,19 @@ class EKF:
         ``ALONG_TRACK`` of the dynamics' along the bow and ``ACROSS_TRACK`` across it, in
         place of the same in every direction."""
         q = self.config.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
-        h = float(self.kf.x[I_H, 0])
-        a = np.array([-math.sin(h), math.cos(h)])
-        c = np.array([math.cos(h), math.sin(h)])
-        delta = q * ((ALONG_TRACK - 1.0) * np.outer(a, a) + (ACROSS_TRACK - 1.0) * np.outer(c, c))
-        pos, vel = np.ix_([I_X, I_Y], [I_X, I_Y]), np.ix_([I_VX, I_VY], [I_VX, I_VY])
-        cross, cross_t = np.ix_([I_X, I_Y], [I_VX, I_VY]), np.ix_([I_VX, I_VY], [I_X, I_Y])
-        P[pos] += pp * delta
-        P[vel] += vv * delta
-        P[cross] += pv * delta
-        P[cross_t] += pv * delta
+        h = self.kf.x.item(I_H)
+        a = (-math.sin(h), math.cos(h))
+        c = (math.cos(h), math.sin(h))
+        along, across = ALONG_TRACK - 1.0, ACROSS_TRACK - 1.0
+        # q ((along) a aᵀ + (across) c cᵀ), cell by cell in floats: the same operations as
+        # numpy's outer products and sums, without a dozen small arrays
+        delta = np.array([[q * (along * (a[i] * a[j]) + across * (c[i] * c[j]))
+                           for j in (0, 1)] for i in (0, 1)])
+        # X, Y and Ẋ, Ẏ are two runs of adjacent states: the four blocks are slices
+        P[I_X:I_Y + 1, I_X:I_Y + 1] += pp * delta
+        P[I_VX:I_VY + 1, I_VX:I_VY + 1] += vv * delta
+        P[I_X:I_Y + 1, I_VX:I_VY + 1] += pv * delta
+        P[I_VX:I_VY + 1, I_X:I_Y + 1] += pv * delta
 
     # ------------------------------------------------------------------ update
 
@@ -750,7 +766,7 @@ class EKF:
         if not observations:
             return UpdateResult()
         rows = self._linearise_all(observations)
-        first, y = rows.first, rows.y
+        first, y, residuals = rows.first, rows.y, rows.residuals
         dot = np.dot  # the same BLAS product as ``@``, at half its call cost on 12×12
         PHt = dot(self.kf.P, rows.H.T)
         S = dot(rows.H, PHt)
@@ -764,8 +780,8 @@ class EKF:
         def d2_of(which: list[int]) -> tuple[float, int]:
             if len(which) == 1:
                 a, b = first[which[0]], first[which[0] + 1]
-                if b - a == 1:
-                    return float(y[a] * y[a] / S[a, a]), 1
+                if b - a == 1:  # in floats: numpy's scalar arithmetic, bit for bit, faster
+                    return residuals[a] * residuals[a] / S.item(a, a), 1
                 ya = y[a:b]
                 return float(dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
             if len(which) == len(observations):
@@ -824,31 +840,32 @@ class EKF:
         self._tidy()
 
     def _linearise_all(self, observations: list[Observation]) -> _Slice:
-        """The observations of one slice linearised and stacked: Python floats per row,
-        then one array each (a few small arrays per observation cost more than the maths)."""
-        x = self.kf.x[:, 0].tolist()
+        """The observations of one slice linearised and stacked: Python floats per row into
+        one list (H row by row, then the residuals, then the variances), made one array and
+        viewed as the three (a few small arrays per observation cost more than the maths)."""
+        x = self.kf.x.reshape(-1).tolist()
         n = self.dim
-        y: list[float] = []
-        r: list[float] = []
-        cells: list[int] = []  # flat indices into H
-        values: list[float] = []
+        rows: list[_Row] = []
         first = [0]
         for obs in observations:
-            for z, hx, jacobian, variance, angular in self._rows(obs, x):
-                base = len(y) * n
-                residual = z - hx
-                if angular:
-                    residual = (residual + math.pi) % (2.0 * math.pi) - math.pi
-                y.append(residual)
-                r.append(variance)
-                for col, value in jacobian:
-                    cells.append(base + col)
-                    values.append(value)
-            first.append(len(y))
-        H = np.zeros((len(y), n))
-        H.reshape(-1)[cells] = values
-        y_and_r = np.array((y, r))  # one conversion for both
-        return _Slice(y_and_r[0], H, y_and_r[1], first)
+            rows += self._rows(obs, x)
+            first.append(len(rows))
+        m = len(rows)
+        at_y = m * n
+        at_r = at_y + m
+        flat = [0.0] * (at_r + m)
+        for k, (z, hx, jacobian, variance, angular) in enumerate(rows):
+            residual = z - hx
+            if angular:
+                residual = (residual + math.pi) % (2.0 * math.pi) - math.pi
+            flat[at_y + k] = residual
+            flat[at_r + k] = variance
+            base = k * n
+            for col, value in jacobian:
+                flat[base + col] = value
+        stacked = np.array(flat)
+        return _Slice(stacked[at_y:at_r], stacked[:at_y].reshape(m, n), stacked[at_r:], first,
+                      flat[at_y:at_r])
 
     def _linearise(self, obs: Observation) -> _Rows:
         """One observation linearised at the current state: measurement, prediction, Jacobian,
@@ -989,9 +1006,11 @@ class EKF:
         check the uncertainty limit."""
         kf = self.kf
         if symmetrise:
-            kf.P = 0.5 * (kf.P + kf.P.T)
+            P = kf.P + kf.P.T
+            P *= 0.5  # 0.5 (P + Pᵀ), one temporary fewer
+            kf.P = P
         x, cfg = kf.x, self.config
-        state = x[:, 0].tolist()
+        state = x.reshape(-1).tolist()
         if self._healthy(state):
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
@@ -1066,7 +1085,8 @@ class EKF:
 
     def position_sigma(self) -> float:
         """The larger 1-σ of the position (square root of P's top eigenvalue for X, Y)."""
-        (pxx, pxy), (_pyx, pyy) = self.kf.P[:2, :2].tolist()
+        P = self.kf.P
+        pxx, pxy, pyy = P.item(0, 0), P.item(0, 1), P.item(1, 1)
         half_sum, half_diff = (pxx + pyy) / 2, (pxx - pyy) / 2
         return math.sqrt(max(half_sum + math.hypot(half_diff, pxy), 0.0))
 
