@@ -100,6 +100,7 @@ from filterpy.kalman import ExtendedKalmanFilter
 from scipy.linalg.lapack import dgesv, dpotrf
 from scipy.stats import chi2
 
+from mavhelm.nav.chi_square import chi2_logsf
 from mavhelm.nav.settings import (
     EKF_BEACON_OFFSETS,
     EKF_GATE,
@@ -486,6 +487,8 @@ class _Slice(NamedTuple):
     first: list[int]
     residuals: list[float]
     """``y`` as floats."""
+    x: list[float]
+    """The state the rows were linearised at, as floats."""
 
 
 class EKF:
@@ -685,7 +688,8 @@ class EKF:
 
     def predict(self, dt: float) -> None:
         """Constant-velocity prediction over ``dt`` seconds."""
-        self._require_online()
+        if self.failure is not None:
+            raise self.failure
         if not (math.isfinite(dt) and dt >= 0):
             raise ValueError(f"predict needs dt >= 0 s, got {dt}")
         self._last_dt = dt
@@ -699,17 +703,20 @@ class EKF:
                 F[i, j] = dt
         if follows:
             # the velocity turns with the hull: v ← R(Ḣ dt) v, linearised for P
-            x = kf.x[:, 0]
-            vx, vy, w = x[I_VX], x[I_VY], x[I_VH]
+            _, _, _, vx, vy, w, *_ = state = _column(kf.x)
             s, c = math.sin(w * dt), math.cos(w * dt)
             F[I_VX, I_VX], F[I_VX, I_VY], F[I_VY, I_VX], F[I_VY, I_VY] = c, -s, s, c
             F[I_VX, I_VH] = dt * (-vx * s - vy * c)
             F[I_VY, I_VH] = dt * (vx * c - vy * s)
-            new = F @ kf.x
-            new[I_VX, 0], new[I_VY, 0] = vx * c - vy * s, vx * s + vy * c
-            kf.x = new
+            state = _column(F @ kf.x)
+            state[I_VX], state[I_VY] = vx * c - vy * s, vx * s + vy * c
         else:
-            kf.x = np.dot(F, kf.x)
+            # F x in floats: each position plus dt times its rate (F's other rows are the
+            # identity's), the sum BLAS makes of the same products and exact zeros
+            state = _column(kf.x)
+            if mobile:
+                for i, j in self._rate_of:
+                    state[i] += dt * state[j]
         kf.P = np.dot(np.dot(F, kf.P), F.T)  # F P Fᵀ: np.dot is ``@`` at half the call cost
         if dt > 0:
             if dt != self._q_dt:  # the same step as last time (a steady tick): the same Q
@@ -731,7 +738,7 @@ class EKF:
                 if self.t + dt >= until:
                     self._wander = None
         self.t += dt
-        self._tidy(symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
+        self._tidy(state, symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
 
     def _along_track_noise(self, P: np.ndarray, pp: float, pv: float, vv: float) -> None:
         """A hull that moves along its bow changes its speed slowly and its course by
@@ -758,7 +765,8 @@ class EKF:
     def update(self, z: Observation | Sequence[Observation]) -> UpdateResult:
         """Gate and apply one observation or the observations of one time slice (taken to be
         at the filter's time: ``advance`` to them first). Returns each one's verdict."""
-        self._require_online()
+        if self.failure is not None:
+            raise self.failure
         if isinstance(z, (list, tuple)) or isinstance(z, Sequence):  # the ABC's check is slow
             observations = list(z)
         else:
@@ -800,15 +808,15 @@ class EKF:
             # drop the observation whose absence leaves the most consistent set: the largest
             # χ² tail probability (in logs, which do not saturate as the CDF does)
             def leave_out(k: int, keep: list[int] = alive) -> float:
-                return float(chi2.logsf(*d2_of([j for j in keep if j != k])))
+                return chi2_logsf(*d2_of([j for j in keep if j != k]))
 
             alive.remove(max(alive, key=leave_out))
         if alive:
             idx = None if len(alive) == len(observations) else rows_of(alive)
             S_inv = full_inverse[0] if idx is None and full_inverse else None
             if S_inv is None and len(y) == 1:
-                S_inv = np.array([[1.0 / S[0, 0]]])  # what inv() gives for 1×1, bit for bit
-            self._apply(rows.r, idx, y, S, PHt, S_inv)
+                S_inv = np.array([[1.0 / S.item(0, 0)]])  # what inv() gives for 1×1, bit for bit
+            self._apply(rows.x, rows.r, idx, y, S, PHt, S_inv)
         return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive)
                              for k, obs in enumerate(observations)])
 
@@ -818,10 +826,10 @@ class EKF:
             gate = self._gates[dof] = float(chi2.ppf(self.config.gate_probability, dof))
         return gate
 
-    def _apply(self, r: np.ndarray, idx: np.ndarray | None, y: np.ndarray, S: np.ndarray,
-               PHt: np.ndarray, S_inv: np.ndarray | None = None) -> None:  # noqa: N803
+    def _apply(self, x: list[float], r: np.ndarray, idx: np.ndarray | None, y: np.ndarray,
+               S: np.ndarray, PHt: np.ndarray, S_inv: np.ndarray | None = None) -> None:  # noqa: N803
         """The Kalman correction with the accepted rows ``idx`` (None: all), reusing the
-        innovation covariance the gating computed."""
+        innovation covariance the gating computed; ``x``: the prior state as floats."""
         if idx is None:
             Ss, PHts, yi = S, PHt, y
         else:
@@ -830,20 +838,20 @@ class EKF:
             S_inv = _inv(Ss)
         K = np.dot(PHts, S_inv)
         kf = self.kf
-        kf.x = kf.x + np.dot(K, yi).reshape(-1, 1)
+        state = [a + b for a, b in zip(x, np.dot(K, yi).tolist(), strict=True)]  # x + K y
         # P − K S Kᵀ (= P − K (P Hᵀ)ᵀ), symmetrised by _tidy: one product instead of the Joseph
         # form's four, which on this filter's well-conditioned updates gives the same P to
         # 1e-12 (pinned by a test) at a third of the cost
         kf.P = kf.P - np.dot(K, PHts.T)
         kf.K, kf.y, kf.S, kf.SI = K, yi, Ss, S_inv
         self._last_r = r
-        self._tidy()
+        self._tidy(state)
 
     def _linearise_all(self, observations: list[Observation]) -> _Slice:
         """The observations of one slice linearised and stacked: Python floats per row into
         one list (H row by row, then the residuals, then the variances), made one array and
         viewed as the three (a few small arrays per observation cost more than the maths)."""
-        x = self.kf.x.reshape(-1).tolist()
+        x = _column(self.kf.x)
         n = self.dim
         rows: list[_Row] = []
         first = [0]
@@ -865,7 +873,7 @@ class EKF:
                 flat[base + col] = value
         stacked = np.array(flat)
         return _Slice(stacked[at_y:at_r], stacked[:at_y].reshape(m, n), stacked[at_r:], first,
-                      flat[at_y:at_r])
+                      flat[at_y:at_r], x)
 
     def _linearise(self, obs: Observation) -> _Rows:
         """One observation linearised at the current state: measurement, prediction, Jacobian,
@@ -1001,26 +1009,25 @@ class EKF:
             P[:, i] = 0.0
             P[i, i] = variance
 
-    def _tidy(self, symmetrise: bool = True) -> None:
-        """Wrap yaw, keep P symmetric, recover from a broken covariance, reset silly rates,
-        check the uncertainty limit."""
-        kf = self.kf
+    def _tidy(self, state: list[float], symmetrise: bool = True) -> None:
+        """Store the new ``state`` (floats) with yaw wrapped, keep P symmetric, recover from a
+        broken covariance, reset silly rates, check the uncertainty limit."""
+        kf, cfg = self.kf, self.config
         if symmetrise:
             P = kf.P + kf.P.T
             P *= 0.5  # 0.5 (P + Pᵀ), one temporary fewer
             kf.P = P
-        x, cfg = kf.x, self.config
-        state = x.reshape(-1).tolist()
         if self._healthy(state):
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
+            kf.x[:, 0] = state
             self._recover()
-            x = kf.x
-            state = x[:, 0].tolist()
+            state = _column(kf.x)
         yaw, vx, vy, yaw_rate = state[I_H], state[I_VX], state[I_VY], state[I_VH]
-        x[I_H, 0] = wrap_angle(yaw)
+        state[I_H] = wrap_angle(yaw)
         if self.i_bias is not None:
-            x[self.i_bias, 0] = wrap_angle(state[self.i_bias])
+            state[self.i_bias] = wrap_angle(state[self.i_bias])
+        kf.x[:, 0] = state  # in place: one write of the whole state
         if not cfg.mobile:
             self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
             vx = vy = yaw_rate = 0.0
@@ -1052,13 +1059,13 @@ class EKF:
         rounding, far inside the 1e-6 allowed below). Only a P it refuses (a static
         vehicle's zero rate variances, or a broken one) is checked entry by entry. ``state``:
         x as floats, when the caller has them."""
-        x, P = self.kf.x, self.kf.P
+        P = self.kf.P
         if state is None:
-            state = x[:, 0].tolist()
+            state = _column(self.kf.x)
         total = np.add.reduce(P, None) + sum(state)  # not finite if any entry is not
         if math.isfinite(total) and dpotrf(P)[1] == 0:
             return True
-        if not (np.isfinite(x).all() and np.isfinite(P).all()):
+        if not (all(math.isfinite(v) for v in state) and np.isfinite(P).all()):
             return False
         var = P.diagonal()
         if (var < 0.0).any():
@@ -1079,10 +1086,6 @@ class EKF:
         self.warnings.append(f"EKF covariance lost its positive definiteness at "
                              f"t={self.t:.2f}: re-initialised to ({px:.1f}, {py:.1f})")
 
-    def _require_online(self) -> None:
-        if self.failure is not None:
-            raise self.failure
-
     def position_sigma(self) -> float:
         """The larger 1-σ of the position (square root of P's top eigenvalue for X, Y)."""
         P = self.kf.P
@@ -1098,12 +1101,12 @@ class EKF:
         return P[I_X:I_Y + 1, I_X:I_Y + 1] + self.config.time_sigma**2 * np.outer(v, v)
 
     def estimate(self) -> Estimate:
-        return self._estimate(self.t, self.kf.x[:, 0].tolist())
+        return self._estimate(self.t, _column(self.kf.x))
 
     def forecast(self, t: float) -> Estimate:
         """The estimate predicted forward to ``t`` without changing the filter (the spec's
         ``EKF_LAG``: the filter runs behind time, control needs now)."""
-        x = self.kf.x[:, 0].tolist()
+        x = _column(self.kf.x)
         dt = max(t - self.t, 0.0)
         x[I_X] += dt * x[I_VX]
         x[I_Y] += dt * x[I_VY]
@@ -1127,6 +1130,11 @@ class EKF:
             tide=x[self.i_tide] if self.i_tide is not None else 0.0,
             sigma_z=_root(var[self.i_z]) if self.i_z is not None else 0.0,
         )
+
+
+def _column(a: np.ndarray) -> list[float]:
+    """A column vector's entries as floats, in one numpy call (the state is n × 1)."""
+    return [v for (v,) in a.tolist()]
 
 
 def _root(variance: float) -> float:

@@ -55,6 +55,7 @@ from typing import Final
 
 from scipy.stats import chi2
 
+from mavhelm.nav.chi_square import chi2_logsf
 from mavhelm.nav.ekf import Beacon, Depth, Position, Range, Yaw
 from mavhelm.nav.settings import LSQ_WINDOW
 
@@ -590,7 +591,7 @@ class LSQ:
     def _surprise(fix: Fix) -> float:
         """How surprising the fix's residuals are: −log of the χ² tail probability (which,
         unlike the CDF, does not saturate for grossly bad fits)."""
-        return -float(chi2.logsf(fix.chi2, fix.dof)) if fix.dof > 0 else 0.0
+        return -chi2_logsf(fix.chi2, fix.dof) if fix.dof > 0 else 0.0
 
     def _consistent(self, fix: Fix) -> bool:
         if fix.dof == 0:
