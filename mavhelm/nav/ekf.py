@@ -731,7 +731,7 @@ class EKF:
             kf.P += self._q_dense
             if follows:
                 pp, pv, _, vv = self._q_block
-                self._along_track_noise(kf.P, pp, pv, vv)
+                self._along_track_noise(kf.P, state[I_H], pp, pv, vv)
             if self._wander is not None and self.i_bias is not None:
                 extra, until = self._wander
                 kf.P[self.i_bias, self.i_bias] += extra * dt
@@ -740,13 +740,13 @@ class EKF:
         self.t += dt
         self._tidy(state, symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
 
-    def _along_track_noise(self, P: np.ndarray, pp: float, pv: float, vv: float) -> None:
+    def _along_track_noise(self, P: np.ndarray, h: float, pp: float, pv: float,
+                           vv: float) -> None:
         """A hull that moves along its bow changes its speed slowly and its course by
         turning, which the prediction already models: its acceleration noise is
         ``ALONG_TRACK`` of the dynamics' along the bow and ``ACROSS_TRACK`` across it, in
-        place of the same in every direction."""
+        place of the same in every direction. ``h``: the predicted yaw."""
         q = self.config.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
-        h = self.kf.x.item(I_H)
         a = (-math.sin(h), math.cos(h))
         c = (math.cos(h), math.sin(h))
         along, across = ALONG_TRACK - 1.0, ACROSS_TRACK - 1.0
