@@ -1096,9 +1096,16 @@ class EKF:
     def position_covariance(self) -> np.ndarray:
         """The published 2×2 position covariance: P's, plus the data's lateness
         (``time_sigma``) times the velocity, along the track."""
-        x, P = self.kf.x, self.kf.P
-        v = x[I_VX:I_VY + 1, 0] if self.config.mobile else np.zeros(2)
-        return P[I_X:I_Y + 1, I_X:I_Y + 1] + self.config.time_sigma**2 * np.outer(v, v)
+        return np.array(self.position_covariance_floats())
+
+    def position_covariance_floats(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """:meth:`position_covariance` as floats (the same operations, cell by cell)."""
+        P = self.kf.P
+        vx, vy = (self.kf.x.item(I_VX), self.kf.x.item(I_VY)) if self.config.mobile \
+            else (0.0, 0.0)
+        late = self.config.time_sigma**2
+        return ((P.item(0, 0) + late * (vx * vx), P.item(0, 1) + late * (vx * vy)),
+                (P.item(1, 0) + late * (vy * vx), P.item(1, 1) + late * (vy * vy)))
 
     def estimate(self) -> Estimate:
         return self._estimate(self.t, _column(self.kf.x))

@@ -410,13 +410,13 @@ class Fusion:
         assert ekf is not None
         result = ekf.update([self._weighted(r.obs, r.sensor.name) for r in kept])
         for r, verdict in zip(kept, result.verdicts, strict=True):
-            self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
+            self._log(r, "accepted" if verdict.accepted else "rejected", d2=verdict.d2)
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
             if isinstance(r.obs, Range | Position) and verdict.accepted:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
-        decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
+        decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(3), ekf.x.item(4)))
         if decision is not None:
             self._decide(decision)
         if any(isinstance(r.obs, Range) for r in kept):
@@ -566,10 +566,14 @@ class Fusion:
 
     # ------------------------------------------------------------------ logs
 
-    def _log(self, r: Reading, fate: str, detail: str = "") -> None:
+    def _log(self, r: Reading, fate: str, detail: str = "", d2: float | None = None) -> None:
+        """Count a reading's fate and, when logging, write its .olog line (``d2``: its χ²
+        distance, formatted only then)."""
         self.counts[fate] = self.counts.get(fate, 0) + 1
         if not self.logging:
             return
+        if d2 is not None:
+            detail = f"{d2:.2f}"
         self.olog.append(f"{r.obs.t:.3f} {r.sensor.name} {r.sensor.type} "
                          f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
 
@@ -599,8 +603,8 @@ class Fusion:
             names = self.state_names()
             self.xlog.append("# t " + " ".join(names) + " | "
                              + " ".join(f"SIGMA_{n}" for n in names))
-        x = ekf.x[:, 0]
-        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
+        x = ekf.x.ravel().tolist()
+        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal().tolist()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
 
