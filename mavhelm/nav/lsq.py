@@ -200,19 +200,36 @@ def _cost(p: list[float], rows: list[_Row]) -> float:
 
 def _normal_equations(p: list[float], rows: list[_Row],
                       k: int) -> tuple[list[list[float]], list[float]]:
-    """JᵀWJ and JᵀWr of the weighted range equations at ``p`` (k unknowns: x, y[, offset])."""
-    normal = [[0.0] * k for _ in range(k)]
-    rhs = [0.0] * k
+    """JᵀWJ and JᵀWr of the weighted range equations at ``p`` (k unknowns: x, y[, offset]).
+
+    Written out for the two or three unknowns, each sum term the loop over (i, j) would make,
+    ``(w² J_i) J_j`` and ``(w² J_i) r`` (the offset's J is 1): the same floats, without a
+    Python loop per entry."""
+    x, y, offset = p[0], p[1], p[2]
+    n00 = n01 = n10 = n11 = r0 = r1 = 0.0
+    n02 = n12 = n20 = n21 = n22 = r2 = 0.0
     for bx, by, bz2, z, w in rows:
         d = _distance(p, bx, by, bz2)
-        jac = ((p[0] - bx) / d, (p[1] - by) / d, 1.0)[:k]
+        jx, jy = (x - bx) / d, (y - by) / d
         w2 = w * w
-        r = z - d - p[2]
-        for i in range(k):
-            rhs[i] += w2 * jac[i] * r
-            for j in range(k):
-                normal[i][j] += w2 * jac[i] * jac[j]
-    return normal, rhs
+        r = z - d - offset
+        wx, wy = w2 * jx, w2 * jy
+        r0 += wx * r
+        r1 += wy * r
+        n00 += wx * jx
+        n01 += wx * jy
+        n10 += wy * jx
+        n11 += wy * jy
+        if k == 3:
+            n02 += wx
+            n12 += wy
+            n20 += w2 * jx
+            n21 += w2 * jy
+            n22 += w2
+            r2 += w2 * r
+    if k == 2:
+        return [[n00, n01], [n10, n11]], [r0, r1]
+    return [[n00, n01, n02], [n10, n11, n12], [n20, n21, n22]], [r0, r1, r2]
 
 
 def _solve_small(a: list[list[float]], b: list[float]) -> list[float] | None:
