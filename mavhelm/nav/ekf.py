@@ -779,46 +779,65 @@ class EKF:
         PHt = dot(self.kf.P, rows.H.T)
         S = dot(rows.H, PHt)
         S.reshape(-1)[::len(y) + 1] += rows.r  # + R, on the diagonal
-
-        def rows_of(which: list[int]) -> np.ndarray:
-            return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
-
-        full_inverse: list[np.ndarray] = []
-
-        def d2_of(which: list[int]) -> tuple[float, int]:
-            if len(which) == 1:
-                a, b = first[which[0]], first[which[0] + 1]
-                if b - a == 1:  # in floats: numpy's scalar arithmetic, bit for bit, faster
-                    return residuals[a] * residuals[a] / S.item(a, a), 1
+        d2: list[tuple[float, int]] = []
+        for k in range(len(observations)):
+            a, b = first[k], first[k + 1]
+            if b - a == 1:  # in floats: numpy's scalar arithmetic, bit for bit, faster
+                d2.append((residuals[a] * residuals[a] / S.item(a, a), 1))
+            else:
                 ya = y[a:b]
-                return float(dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
-            if len(which) == len(observations):
-                full_inverse.append(_inv(S))  # the update reuses it
-                return float(dot(dot(y, full_inverse[-1]), y)), len(y)
-            idx = rows_of(which)
-            yi = y[idx]
-            return float(dot(yi, _solve(S[idx][:, idx], yi))), len(idx)
-
-        d2 = [d2_of([k]) for k in range(len(observations))]
-        alive = [k for k, (d, dof) in enumerate(d2) if d <= self._gate(dof)]
-        while len(alive) > 1:
-            joint, dof = d2_of(alive)
-            if joint <= self._gate(dof):
-                break
-            # drop the observation whose absence leaves the most consistent set: the largest
-            # χ² tail probability (in logs, which do not saturate as the CDF does)
-            def leave_out(k: int, keep: list[int] = alive) -> float:
-                return chi2_logsf(*d2_of([j for j in keep if j != k]))
-
-            alive.remove(max(alive, key=leave_out))
+                d2.append((float(dot(ya, _solve(S[a:b, a:b], ya))), b - a))
+        gates = self._gates
+        alive = [k for k, (d, dof) in enumerate(d2)
+                 if d <= (gates[dof] if dof in gates else self._gate(dof))]
+        S_inv = None
+        if len(alive) > 1:
+            alive, S_inv = self._joint_test(alive, first, y, S)
         if alive:
-            idx = None if len(alive) == len(observations) else rows_of(alive)
-            S_inv = full_inverse[0] if idx is None and full_inverse else None
-            if S_inv is None and len(y) == 1:
+            idx = None if len(alive) == len(observations) else _rows_of(alive, first)
+            if idx is not None:
+                S_inv = None
+            elif S_inv is None and len(y) == 1:
                 S_inv = np.array([[1.0 / S.item(0, 0)]])  # what inv() gives for 1×1, bit for bit
             self._apply(rows.x, rows.r, idx, y, S, PHt, S_inv)
         return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive)
                              for k, obs in enumerate(observations)])
+
+    def _joint_test(self, alive: list[int], first: list[int], y: np.ndarray, S: np.ndarray
+                    ) -> tuple[list[int], np.ndarray | None]:
+        """The χ² test of the observations ``alive`` together (each passed alone): while they
+        fail it, drop the one whose absence leaves the most consistent set (the largest χ²
+        tail probability, in logs, which do not saturate as the CDF does). Returns those kept
+        and, when they are the whole slice, S⁻¹ (the update reuses it)."""
+        everything = len(first) - 1
+        full_inverse: np.ndarray | None = None
+
+        def d2_of(which: list[int]) -> tuple[float, int]:
+            nonlocal full_inverse
+            if len(which) == 1:
+                a, b = first[which[0]], first[which[0] + 1]
+                if b - a == 1:
+                    return float(y[a] * y[a] / S[a, a]), 1
+                ya = y[a:b]
+                return float(np.dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
+            if len(which) == everything:
+                full_inverse = _inv(S)
+                return float(np.dot(np.dot(y, full_inverse), y)), len(y)
+            idx = _rows_of(which, first)
+            yi = y[idx]
+            return float(np.dot(yi, _solve(S[idx][:, idx], yi))), len(idx)
+
+        alive = list(alive)
+        while len(alive) > 1:
+            joint, dof = d2_of(alive)
+            if joint <= self._gate(dof):
+                break
+
+            def leave_out(k: int, keep: list[int] = alive) -> float:
+                return chi2_logsf(*d2_of([j for j in keep if j != k]))
+
+            alive.remove(max(alive, key=leave_out))
+        return alive, full_inverse if len(alive) == everything else None
 
     def _gate(self, dof: int) -> float:
         gate = self._gates.get(dof)
@@ -1137,6 +1156,11 @@ class EKF:
             tide=x[self.i_tide] if self.i_tide is not None else 0.0,
             sigma_z=_root(var[self.i_z]) if self.i_z is not None else 0.0,
         )
+
+
+def _rows_of(which: list[int], first: list[int]) -> np.ndarray:
+    """The stacked rows of the observations ``which`` (``first``: where each one's start)."""
+    return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
 
 
 def _column(a: np.ndarray) -> list[float]:
