@@ -857,7 +857,7 @@ class EKF:
             S_inv = _inv(Ss)
         K = np.dot(PHts, S_inv)
         kf = self.kf
-        state = [a + b for a, b in zip(x, np.dot(K, yi).tolist())]  # x + K y, as numpy adds
+        state = [a + b for a, b in zip(x, np.dot(K, yi).tolist(), strict=True)]  # x + K y
         # P − K S Kᵀ (= P − K (P Hᵀ)ᵀ), symmetrised by _tidy: one product instead of the Joseph
         # form's four, which on this filter's well-conditioned updates gives the same P to
         # 1e-12 (pinned by a test) at a third of the cost
