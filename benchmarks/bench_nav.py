@@ -36,6 +36,24 @@ the bit (Plaza1 tracks and covariances compared).
   5.8/7.1 s CPU (× 0.68); whole tick CPU median 1406/1562 → 1179/1162 µs, p99 2587/3275 →
   2338/2162 µs (× 0.66–0.90). Scaled to the 107 µs / 6.2 s / 2.14 ms that the same old code
   measured at the start of the day: EKF ≈ 46 µs, replay ≈ 4.2 s, tick p99 ≈ 1.6 ms.
+- pNav's second pass (fewer numpy calls in the EKF, a float state between one read and one
+  write per step, Q added whole, a bit-exact χ² log tail in place of ``scipy.stats``' 150 µs
+  call, the LSQ's normal equations written out, the queues' time-outs in one list), the code
+  before and after run alternately, three rounds, CPU time, load 1.4–3.4 (another person's
+  SITL runs): EKF predict+update 52.8/54.6/55.0 µs before, 46.3/50.7/62.7 µs after (best
+  −12 %; the deterministic count under callgrind: 357 k → 326 k instructions a cycle,
+  −8.6 %); one-hour replay 5.17/6.57/6.27 s before, 4.72/5.87/4.74 s after (best −9 %);
+  pNav in the 20-task tick, CPU median 294/378/310 µs before, 353/327/296 µs after, p99
+  503/600/499 before, 535/505/511 after: no change the load lets one see. Results unchanged
+  to the bit (Plaza1 and its six fault variants: per-tick state, covariance, estimates,
+  decisions, .olog/.xlog, tracks; the simulator's dead-reckoning, radio-range and LBL runs).
+  Why the tick did not follow: there a numpy call costs 5–13 µs, not the 0.3–1 µs of a
+  tight loop (the other apps run between two of pNav's steps and take the caches: the
+  first ``np.dot`` of a tick measured 11 µs, ``np.add.reduce`` 12 µs, a one-cell write 2 µs;
+  the EKF's predict 60–70 µs in the tick against 8 µs in a loop), and the EKF needs ~50 calls
+  a tick, most of them BLAS/LAPACK products whose rounding (fused multiply-adds) a float
+  loop would not reproduce. Halving pNav's share of the tick needs the small-state EKF in
+  plain floats — results equal to rounding, no longer to the bit — which this pass did not do.
 """
 
 from __future__ import annotations

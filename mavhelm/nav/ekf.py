@@ -71,11 +71,16 @@ and why:
   the posteriors: measured on the Plaza replay, it was a third of the navigator's time, and
   the one-hour replay target (< 10 s) needed it gone.
 - Speed (a predict+update within 50 µs, 12 states): on matrices this small numpy's cost is
-  per call, not per flop, so the hot path makes fewer calls with the same arithmetic — rows
-  linearised as floats and stacked once, Q added on its nonzero cells, ``np.dot`` for ``@``,
-  LAPACK's gesv called directly for ``np.linalg.solve``/``inv`` (the same routine), one
-  Cholesky factorisation deciding the covariance is sound. Results are bit for bit those of
-  the plain numpy expressions (compared on the Plaza replay and its fault variants).
+  per call, not per flop — and in the companion's tick, where the other apps run between two
+  of pNav's steps, a call costs 5–13 µs, not the 0.3–1 µs of a tight loop (caches gone) — so
+  the hot path makes fewer calls with the same arithmetic: rows linearised as floats and
+  stacked in one array, the state handled as floats between one read and one write per step
+  (F x, x + K y and the yaw wrap are element-wise sums, the same in floats), Q added whole,
+  ``np.dot`` for ``@``, LAPACK's gesv called directly for ``np.linalg.solve``/``inv`` (the
+  same routine), one Cholesky factorisation deciding the covariance is sound. The matrix
+  products stay BLAS's: written as float loops they would round differently (BLAS fuses
+  multiply-adds). Results are bit for bit those of the plain numpy expressions (compared on
+  the Plaza replay, its fault variants and the simulator's runs).
 - χ² gating per observation and jointly, and finding the true outlier by dropping the worst
   and retrying: filterpy only *reports* the Mahalanobis distance after an update has already
   been applied (``mahalanobis``); gating must happen before.
@@ -100,6 +105,7 @@ from filterpy.kalman import ExtendedKalmanFilter
 from scipy.linalg.lapack import dgesv, dpotrf
 from scipy.stats import chi2
 
+from mavhelm.nav.chi_square import chi2_logsf
 from mavhelm.nav.settings import (
     EKF_BEACON_OFFSETS,
     EKF_GATE,
@@ -479,8 +485,7 @@ _Row = tuple[float, float, list[tuple[int, float]], float, bool]
 pairs, variance, whether it is an angle (its residual wraps)."""
 
 
-@dataclass
-class _Slice:
+class _Slice(NamedTuple):
     """The observations of one time slice stacked: residuals, Jacobian, noise, and where each
     observation's rows start (``first[k]:first[k + 1]``)."""
 
@@ -488,6 +493,10 @@ class _Slice:
     H: np.ndarray
     r: np.ndarray
     first: list[int]
+    residuals: list[float]
+    """``y`` as floats."""
+    x: list[float]
+    """The state the rows were linearised at, as floats."""
 
 
 class EKF:
@@ -541,7 +550,12 @@ class EKF:
         self._F = np.eye(self.dim)
         """The prediction's transition matrix, rewritten in place: only the dt entries change."""
         self._q_cells, self._q_blocks = self._noise_cells()
-        self._q_dt, self._q_values = 0.0, np.zeros(0)
+        self._q_dt, self._q_dense = 0.0, np.zeros((self.dim, self.dim))
+        self._q_block = white_noise_block(0.0)
+        """The last step's Q as a full matrix and its white-noise coefficients: a steady tick
+        has the same step, so the same Q."""
+        self._f_dt: float | None = None
+        """The step ``_F``'s rate cells hold."""
         self._rate_of = list(zip(self._pairs[0].tolist(), self._pairs[1].tolist(), strict=True))
         """(position, rate) index pairs of the constant-velocity model."""
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
@@ -682,7 +696,8 @@ class EKF:
 
     def predict(self, dt: float) -> None:
         """Constant-velocity prediction over ``dt`` seconds."""
-        self._require_online()
+        if self.failure is not None:
+            raise self.failure
         if not (math.isfinite(dt) and dt >= 0):
             raise ValueError(f"predict needs dt >= 0 s, got {dt}")
         self._last_dt = dt
@@ -690,62 +705,76 @@ class EKF:
         F = self._F
         mobile = self.config.mobile
         follows = mobile and self.config.velocity_follows_heading
-        if mobile:
+        if mobile and dt != self._f_dt:
+            self._f_dt = dt
             for i, j in self._rate_of:
                 F[i, j] = dt
         if follows:
             # the velocity turns with the hull: v ← R(Ḣ dt) v, linearised for P
-            x = kf.x[:, 0]
-            vx, vy, w = x[I_VX], x[I_VY], x[I_VH]
+            _, _, _, vx, vy, w, *_ = state = _column(kf.x)
             s, c = math.sin(w * dt), math.cos(w * dt)
             F[I_VX, I_VX], F[I_VX, I_VY], F[I_VY, I_VX], F[I_VY, I_VY] = c, -s, s, c
             F[I_VX, I_VH] = dt * (-vx * s - vy * c)
             F[I_VY, I_VH] = dt * (vx * c - vy * s)
-            new = F @ kf.x
-            new[I_VX, 0], new[I_VY, 0] = vx * c - vy * s, vx * s + vy * c
-            kf.x = new
+            state = _column(F @ kf.x)
+            state[I_VX], state[I_VY] = vx * c - vy * s, vx * s + vy * c
         else:
-            kf.x = np.dot(F, kf.x)
+            # F x in floats: each position plus dt times its rate (F's other rows are the
+            # identity's), the sum BLAS makes of the same products and exact zeros
+            state = _column(kf.x)
+            if mobile:
+                for i, j in self._rate_of:
+                    state[i] += dt * state[j]
         kf.P = np.dot(np.dot(F, kf.P), F.T)  # F P Fᵀ: np.dot is ``@`` at half the call cost
         if dt > 0:
-            pp, pv, _, vv = white_noise_block(dt)
             if dt != self._q_dt:  # the same step as last time (a steady tick): the same Q
                 self._q_dt = dt
-                self._q_values = np.dot(np.array((pp, pv, vv, dt)), self._q_blocks)
-            kf.P.reshape(-1)[self._q_cells] += self._q_values
+                self._q_block = white_noise_block(dt)
+                pp, pv, _, vv = self._q_block
+                self._q_dense = np.zeros((self.dim, self.dim))
+                self._q_dense.reshape(-1)[self._q_cells] = np.dot(np.array((pp, pv, vv, dt)),
+                                                                   self._q_blocks)
+            # Q added whole: its zero cells leave P's as they are (x + 0 = x), one call
+            # instead of an indexed read-add-write
+            kf.P += self._q_dense
             if follows:
-                self._along_track_noise(kf.P, pp, pv, vv)
+                pp, pv, _, vv = self._q_block
+                self._along_track_noise(kf.P, state[I_H], pp, pv, vv)
             if self._wander is not None and self.i_bias is not None:
                 extra, until = self._wander
                 kf.P[self.i_bias, self.i_bias] += extra * dt
                 if self.t + dt >= until:
                     self._wander = None
         self.t += dt
-        self._tidy(symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
+        self._tidy(state, symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
 
-    def _along_track_noise(self, P: np.ndarray, pp: float, pv: float, vv: float) -> None:
+    def _along_track_noise(self, P: np.ndarray, h: float, pp: float, pv: float,
+                           vv: float) -> None:
         """A hull that moves along its bow changes its speed slowly and its course by
         turning, which the prediction already models: its acceleration noise is
         ``ALONG_TRACK`` of the dynamics' along the bow and ``ACROSS_TRACK`` across it, in
-        place of the same in every direction."""
+        place of the same in every direction. ``h``: the predicted yaw."""
         q = self.config.xy_dynamics / 10.0 * FULL_SCALE_XY_ACCEL
-        h = float(self.kf.x[I_H, 0])
-        a = np.array([-math.sin(h), math.cos(h)])
-        c = np.array([math.cos(h), math.sin(h)])
-        delta = q * ((ALONG_TRACK - 1.0) * np.outer(a, a) + (ACROSS_TRACK - 1.0) * np.outer(c, c))
-        pos, vel = np.ix_([I_X, I_Y], [I_X, I_Y]), np.ix_([I_VX, I_VY], [I_VX, I_VY])
-        cross, cross_t = np.ix_([I_X, I_Y], [I_VX, I_VY]), np.ix_([I_VX, I_VY], [I_X, I_Y])
-        P[pos] += pp * delta
-        P[vel] += vv * delta
-        P[cross] += pv * delta
-        P[cross_t] += pv * delta
+        a = (-math.sin(h), math.cos(h))
+        c = (math.cos(h), math.sin(h))
+        along, across = ALONG_TRACK - 1.0, ACROSS_TRACK - 1.0
+        # q ((along) a aᵀ + (across) c cᵀ), cell by cell in floats: the same operations as
+        # numpy's outer products and sums, without a dozen small arrays
+        delta = np.array([[q * (along * (a[i] * a[j]) + across * (c[i] * c[j]))
+                           for j in (0, 1)] for i in (0, 1)])
+        # X, Y and Ẋ, Ẏ are two runs of adjacent states: the four blocks are slices
+        P[I_X:I_Y + 1, I_X:I_Y + 1] += pp * delta
+        P[I_VX:I_VY + 1, I_VX:I_VY + 1] += vv * delta
+        P[I_X:I_Y + 1, I_VX:I_VY + 1] += pv * delta
+        P[I_VX:I_VY + 1, I_X:I_Y + 1] += pv * delta
 
     # ------------------------------------------------------------------ update
 
     def update(self, z: Observation | Sequence[Observation]) -> UpdateResult:
         """Gate and apply one observation or the observations of one time slice (taken to be
         at the filter's time: ``advance`` to them first). Returns each one's verdict."""
-        self._require_online()
+        if self.failure is not None:
+            raise self.failure
         if isinstance(z, (list, tuple)) or isinstance(z, Sequence):  # the ABC's check is slow
             observations = list(z)
         else:
@@ -753,51 +782,70 @@ class EKF:
         if not observations:
             return UpdateResult()
         rows = self._linearise_all(observations)
-        first, y = rows.first, rows.y
+        first, y, residuals = rows.first, rows.y, rows.residuals
         dot = np.dot  # the same BLAS product as ``@``, at half its call cost on 12×12
         PHt = dot(self.kf.P, rows.H.T)
         S = dot(rows.H, PHt)
         S.reshape(-1)[::len(y) + 1] += rows.r  # + R, on the diagonal
+        d2: list[tuple[float, int]] = []
+        for k in range(len(observations)):
+            a, b = first[k], first[k + 1]
+            if b - a == 1:  # in floats: numpy's scalar arithmetic, bit for bit, faster
+                d2.append((residuals[a] * residuals[a] / S.item(a, a), 1))
+            else:
+                ya = y[a:b]
+                d2.append((float(dot(ya, _solve(S[a:b, a:b], ya))), b - a))
+        gates = self._gates
+        alive = [k for k, (d, dof) in enumerate(d2)
+                 if d <= (gates[dof] if dof in gates else self._gate(dof))]
+        S_inv = None
+        if len(alive) > 1:
+            alive, S_inv = self._joint_test(alive, first, y, S)
+        if alive:
+            idx = None if len(alive) == len(observations) else _rows_of(alive, first)
+            if idx is not None:
+                S_inv = None
+            elif S_inv is None and len(y) == 1:
+                S_inv = np.array([[1.0 / S.item(0, 0)]])  # what inv() gives for 1×1, bit for bit
+            self._apply(rows.x, rows.r, idx, y, S, PHt, S_inv)
+        return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive)
+                             for k, obs in enumerate(observations)])
 
-        def rows_of(which: list[int]) -> np.ndarray:
-            return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
-
-        full_inverse: list[np.ndarray] = []
+    def _joint_test(self, alive: list[int], first: list[int], y: np.ndarray, S: np.ndarray
+                    ) -> tuple[list[int], np.ndarray | None]:
+        """The χ² test of the observations ``alive`` together (each passed alone): while they
+        fail it, drop the one whose absence leaves the most consistent set (the largest χ²
+        tail probability, in logs, which do not saturate as the CDF does). Returns those kept
+        and, when they are the whole slice, S⁻¹ (the update reuses it)."""
+        everything = len(first) - 1
+        full_inverse: np.ndarray | None = None
 
         def d2_of(which: list[int]) -> tuple[float, int]:
+            nonlocal full_inverse
             if len(which) == 1:
                 a, b = first[which[0]], first[which[0] + 1]
                 if b - a == 1:
                     return float(y[a] * y[a] / S[a, a]), 1
                 ya = y[a:b]
-                return float(dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
-            if len(which) == len(observations):
-                full_inverse.append(_inv(S))  # the update reuses it
-                return float(dot(dot(y, full_inverse[-1]), y)), len(y)
-            idx = rows_of(which)
+                return float(np.dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
+            if len(which) == everything:
+                full_inverse = _inv(S)
+                return float(np.dot(np.dot(y, full_inverse), y)), len(y)
+            idx = _rows_of(which, first)
             yi = y[idx]
-            return float(dot(yi, _solve(S[idx][:, idx], yi))), len(idx)
+            return float(np.dot(yi, _solve(S[idx][:, idx], yi))), len(idx)
 
-        d2 = [d2_of([k]) for k in range(len(observations))]
-        alive = [k for k, (d, dof) in enumerate(d2) if d <= self._gate(dof)]
+        alive = list(alive)
         while len(alive) > 1:
             joint, dof = d2_of(alive)
             if joint <= self._gate(dof):
                 break
-            # drop the observation whose absence leaves the most consistent set: the largest
-            # χ² tail probability (in logs, which do not saturate as the CDF does)
+
             def leave_out(k: int, keep: list[int] = alive) -> float:
-                return float(chi2.logsf(*d2_of([j for j in keep if j != k])))
+                return chi2_logsf(*d2_of([j for j in keep if j != k]))
 
             alive.remove(max(alive, key=leave_out))
-        if alive:
-            idx = None if len(alive) == len(observations) else rows_of(alive)
-            S_inv = full_inverse[0] if idx is None and full_inverse else None
-            if S_inv is None and len(y) == 1:
-                S_inv = np.array([[1.0 / S[0, 0]]])  # what inv() gives for 1×1, bit for bit
-            self._apply(rows.r, idx, y, S, PHt, S_inv)
-        return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive)
-                             for k, obs in enumerate(observations)])
+        return alive, full_inverse if len(alive) == everything else None
 
     def _gate(self, dof: int) -> float:
         gate = self._gates.get(dof)
@@ -805,10 +853,10 @@ class EKF:
             gate = self._gates[dof] = float(chi2.ppf(self.config.gate_probability, dof))
         return gate
 
-    def _apply(self, r: np.ndarray, idx: np.ndarray | None, y: np.ndarray, S: np.ndarray,
-               PHt: np.ndarray, S_inv: np.ndarray | None = None) -> None:  # noqa: N803
+    def _apply(self, x: list[float], r: np.ndarray, idx: np.ndarray | None, y: np.ndarray,
+               S: np.ndarray, PHt: np.ndarray, S_inv: np.ndarray | None = None) -> None:  # noqa: N803
         """The Kalman correction with the accepted rows ``idx`` (None: all), reusing the
-        innovation covariance the gating computed."""
+        innovation covariance the gating computed; ``x``: the prior state as floats."""
         if idx is None:
             Ss, PHts, yi = S, PHt, y
         else:
@@ -817,41 +865,42 @@ class EKF:
             S_inv = _inv(Ss)
         K = np.dot(PHts, S_inv)
         kf = self.kf
-        kf.x = kf.x + np.dot(K, yi).reshape(-1, 1)
+        state = [a + b for a, b in zip(x, np.dot(K, yi).tolist(), strict=True)]  # x + K y
         # P − K S Kᵀ (= P − K (P Hᵀ)ᵀ), symmetrised by _tidy: one product instead of the Joseph
         # form's four, which on this filter's well-conditioned updates gives the same P to
         # 1e-12 (pinned by a test) at a third of the cost
         kf.P = kf.P - np.dot(K, PHts.T)
         kf.K, kf.y, kf.S, kf.SI = K, yi, Ss, S_inv
         self._last_r = r
-        self._tidy()
+        self._tidy(state)
 
     def _linearise_all(self, observations: list[Observation]) -> _Slice:
-        """The observations of one slice linearised and stacked: Python floats per row,
-        then one array each (a few small arrays per observation cost more than the maths)."""
-        x = self.kf.x[:, 0].tolist()
+        """The observations of one slice linearised and stacked: Python floats per row into
+        one list (H row by row, then the residuals, then the variances), made one array and
+        viewed as the three (a few small arrays per observation cost more than the maths)."""
+        x = _column(self.kf.x)
         n = self.dim
-        y: list[float] = []
-        r: list[float] = []
-        cells: list[int] = []  # flat indices into H
-        values: list[float] = []
+        rows: list[_Row] = []
         first = [0]
         for obs in observations:
-            for z, hx, jacobian, variance, angular in self._rows(obs, x):
-                base = len(y) * n
-                residual = z - hx
-                if angular:
-                    residual = (residual + math.pi) % (2.0 * math.pi) - math.pi
-                y.append(residual)
-                r.append(variance)
-                for col, value in jacobian:
-                    cells.append(base + col)
-                    values.append(value)
-            first.append(len(y))
-        H = np.zeros((len(y), n))
-        H.reshape(-1)[cells] = values
-        y_and_r = np.array((y, r))  # one conversion for both
-        return _Slice(y_and_r[0], H, y_and_r[1], first)
+            rows += self._rows(obs, x)
+            first.append(len(rows))
+        m = len(rows)
+        at_y = m * n
+        at_r = at_y + m
+        flat = [0.0] * (at_r + m)
+        for k, (z, hx, jacobian, variance, angular) in enumerate(rows):
+            residual = z - hx
+            if angular:
+                residual = (residual + math.pi) % (2.0 * math.pi) - math.pi
+            flat[at_y + k] = residual
+            flat[at_r + k] = variance
+            base = k * n
+            for col, value in jacobian:
+                flat[base + col] = value
+        stacked = np.array(flat)
+        return _Slice(stacked[at_y:at_r], stacked[:at_y].reshape(m, n), stacked[at_r:], first,
+                      flat[at_y:at_r], x)
 
     def _linearise(self, obs: Observation) -> _Rows:
         """One observation linearised at the current state: measurement, prediction, Jacobian,
@@ -1006,24 +1055,25 @@ class EKF:
             P[:, i] = 0.0
             P[i, i] = variance
 
-    def _tidy(self, symmetrise: bool = True) -> None:
-        """Wrap yaw, keep P symmetric, recover from a broken covariance, reset silly rates,
-        check the uncertainty limit."""
-        kf = self.kf
+    def _tidy(self, state: list[float], symmetrise: bool = True) -> None:
+        """Store the new ``state`` (floats) with yaw wrapped, keep P symmetric, recover from a
+        broken covariance, reset silly rates, check the uncertainty limit."""
+        kf, cfg = self.kf, self.config
         if symmetrise:
-            kf.P = 0.5 * (kf.P + kf.P.T)
-        x, cfg = kf.x, self.config
-        state = x[:, 0].tolist()
+            P = kf.P + kf.P.T
+            P *= 0.5  # 0.5 (P + Pᵀ), one temporary fewer
+            kf.P = P
         if self._healthy(state):
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
+            kf.x[:, 0] = state
             self._recover()
-            x = kf.x
-            state = x[:, 0].tolist()
+            state = _column(kf.x)
         yaw, vx, vy, yaw_rate = state[I_H], state[I_VX], state[I_VY], state[I_VH]
-        x[I_H, 0] = wrap_angle(yaw)
+        state[I_H] = wrap_angle(yaw)
         if self.i_bias is not None:
-            x[self.i_bias, 0] = wrap_angle(state[self.i_bias])
+            state[self.i_bias] = wrap_angle(state[self.i_bias])
+        kf.x[:, 0] = state  # in place: one write of the whole state
         if not cfg.mobile:
             self._reset_states(self._rate_indices(), (0.0,) * len(self._rate_indices()), 0.0)
             vx = vy = yaw_rate = 0.0
@@ -1055,13 +1105,13 @@ class EKF:
         rounding, far inside the 1e-6 allowed below). Only a P it refuses (a static
         vehicle's zero rate variances, or a broken one) is checked entry by entry. ``state``:
         x as floats, when the caller has them."""
-        x, P = self.kf.x, self.kf.P
+        P = self.kf.P
         if state is None:
-            state = x[:, 0].tolist()
+            state = _column(self.kf.x)
         total = np.add.reduce(P, None) + sum(state)  # not finite if any entry is not
         if math.isfinite(total) and dpotrf(P)[1] == 0:
             return True
-        if not (np.isfinite(x).all() and np.isfinite(P).all()):
+        if not (all(math.isfinite(v) for v in state) and np.isfinite(P).all()):
             return False
         var = P.diagonal()
         if (var < 0.0).any():
@@ -1082,30 +1132,34 @@ class EKF:
         self.warnings.append(f"EKF covariance lost its positive definiteness at "
                              f"t={self.t:.2f}: re-initialised to ({px:.1f}, {py:.1f})")
 
-    def _require_online(self) -> None:
-        if self.failure is not None:
-            raise self.failure
-
     def position_sigma(self) -> float:
         """The larger 1-σ of the position (square root of P's top eigenvalue for X, Y)."""
-        (pxx, pxy), (_pyx, pyy) = self.kf.P[:2, :2].tolist()
+        P = self.kf.P
+        pxx, pxy, pyy = P.item(0, 0), P.item(0, 1), P.item(1, 1)
         half_sum, half_diff = (pxx + pyy) / 2, (pxx - pyy) / 2
         return math.sqrt(max(half_sum + math.hypot(half_diff, pxy), 0.0))
 
     def position_covariance(self) -> np.ndarray:
         """The published 2×2 position covariance: P's, plus the data's lateness
         (``time_sigma``) times the velocity, along the track."""
-        x, P = self.kf.x, self.kf.P
-        v = x[I_VX:I_VY + 1, 0] if self.config.mobile else np.zeros(2)
-        return P[I_X:I_Y + 1, I_X:I_Y + 1] + self.config.time_sigma**2 * np.outer(v, v)
+        return np.array(self.position_covariance_floats())
+
+    def position_covariance_floats(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """:meth:`position_covariance` as floats (the same operations, cell by cell)."""
+        P = self.kf.P
+        vx, vy = (self.kf.x.item(I_VX), self.kf.x.item(I_VY)) if self.config.mobile \
+            else (0.0, 0.0)
+        late = self.config.time_sigma**2
+        return ((P.item(0, 0) + late * (vx * vx), P.item(0, 1) + late * (vx * vy)),
+                (P.item(1, 0) + late * (vy * vx), P.item(1, 1) + late * (vy * vy)))
 
     def estimate(self) -> Estimate:
-        return self._estimate(self.t, self.kf.x[:, 0].tolist())
+        return self._estimate(self.t, _column(self.kf.x))
 
     def forecast(self, t: float) -> Estimate:
         """The estimate predicted forward to ``t`` without changing the filter (the spec's
         ``EKF_LAG``: the filter runs behind time, control needs now)."""
-        x = self.kf.x[:, 0].tolist()
+        x = _column(self.kf.x)
         dt = max(t - self.t, 0.0)
         x[I_X] += dt * x[I_VX]
         x[I_Y] += dt * x[I_VY]
@@ -1129,6 +1183,16 @@ class EKF:
             tide=x[self.i_tide] if self.i_tide is not None else 0.0,
             sigma_z=_root(var[self.i_z]) if self.i_z is not None else 0.0,
         )
+
+
+def _rows_of(which: list[int], first: list[int]) -> np.ndarray:
+    """The stacked rows of the observations ``which`` (``first``: where each one's start)."""
+    return np.concatenate([np.arange(first[k], first[k + 1]) for k in which])
+
+
+def _column(a: np.ndarray) -> list[float]:
+    """A column vector's entries as floats (the state is n × 1)."""
+    return a.ravel().tolist()
 
 
 def _root(variance: float) -> float:

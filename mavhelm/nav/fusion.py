@@ -422,7 +422,7 @@ class Fusion:
                              for r in kept])
         self._note_coupling(kept)
         for r, verdict in zip(kept, result.verdicts, strict=True):
-            self._log(r, "accepted" if verdict.accepted else "rejected", f"{verdict.d2:.2f}")
+            self._log(r, "accepted" if verdict.accepted else "rejected", d2=verdict.d2)
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
@@ -430,7 +430,7 @@ class Fusion:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
         ekf = self.ekf  # a doubt may have given it a bias state
         assert ekf is not None
-        decision = self.heading_watch.motion(t, math.hypot(ekf.x[3, 0], ekf.x[4, 0]))
+        decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(3), ekf.x.item(4)))
         if decision is not None:
             self._decide(decision)
         if any(isinstance(r.obs, Range) for r in kept):
@@ -630,10 +630,14 @@ class Fusion:
 
     # ------------------------------------------------------------------ logs
 
-    def _log(self, r: Reading, fate: str, detail: str = "") -> None:
+    def _log(self, r: Reading, fate: str, detail: str = "", d2: float | None = None) -> None:
+        """Count a reading's fate and, when logging, write its .olog line (``d2``: its χ²
+        distance, formatted only then)."""
         self.counts[fate] = self.counts.get(fate, 0) + 1
         if not self.logging:
             return
+        if d2 is not None:
+            detail = f"{d2:.2f}"
         self.olog.append(f"{r.obs.t:.3f} {r.sensor.name} {r.sensor.type} "
                          f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
 
@@ -663,8 +667,8 @@ class Fusion:
             names = self.state_names()
             self.xlog.append("# t " + " ".join(names) + " | "
                              + " ".join(f"SIGMA_{n}" for n in names))
-        x = ekf.x[:, 0]
-        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal()]
+        x = ekf.x.ravel().tolist()
+        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal().tolist()]
         self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
                          + " ".join(f"{v:.4g}" for v in sigma))
 

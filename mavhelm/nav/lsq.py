@@ -55,6 +55,7 @@ from typing import Final
 
 from scipy.stats import chi2
 
+from mavhelm.nav.chi_square import chi2_logsf
 from mavhelm.nav.ekf import Beacon, Depth, Position, Range, Yaw
 from mavhelm.nav.settings import LSQ_WINDOW
 
@@ -193,25 +194,43 @@ def _distance(p: list[float], bx: float, by: float, bz2: float) -> float:
 
 
 def _cost(p: list[float], rows: list[_Row]) -> float:
-    return sum((w * (z - _distance(p, bx, by, bz2) - p[2])) ** 2
-               for bx, by, bz2, z, w in rows)
+    x, y, offset = p[0], p[1], p[2]  # _distance inline: this runs a dozen times a fix
+    return sum((w * (z - max(math.sqrt((x - bx) ** 2 + (y - by) ** 2 + bz2), 1e-6) - offset))
+               ** 2 for bx, by, bz2, z, w in rows)
 
 
 def _normal_equations(p: list[float], rows: list[_Row],
                       k: int) -> tuple[list[list[float]], list[float]]:
-    """JᵀWJ and JᵀWr of the weighted range equations at ``p`` (k unknowns: x, y[, offset])."""
-    normal = [[0.0] * k for _ in range(k)]
-    rhs = [0.0] * k
+    """JᵀWJ and JᵀWr of the weighted range equations at ``p`` (k unknowns: x, y[, offset]).
+
+    Written out for the two or three unknowns, each sum term the loop over (i, j) would make,
+    ``(w² J_i) J_j`` and ``(w² J_i) r`` (the offset's J is 1): the same floats, without a
+    Python loop per entry."""
+    x, y, offset = p[0], p[1], p[2]
+    n00 = n01 = n10 = n11 = r0 = r1 = 0.0
+    n02 = n12 = n20 = n21 = n22 = r2 = 0.0
     for bx, by, bz2, z, w in rows:
-        d = _distance(p, bx, by, bz2)
-        jac = ((p[0] - bx) / d, (p[1] - by) / d, 1.0)[:k]
+        d = max(math.sqrt((x - bx) ** 2 + (y - by) ** 2 + bz2), 1e-6)  # _distance, inline
+        jx, jy = (x - bx) / d, (y - by) / d
         w2 = w * w
-        r = z - d - p[2]
-        for i in range(k):
-            rhs[i] += w2 * jac[i] * r
-            for j in range(k):
-                normal[i][j] += w2 * jac[i] * jac[j]
-    return normal, rhs
+        r = z - d - offset
+        wx, wy = w2 * jx, w2 * jy
+        r0 += wx * r
+        r1 += wy * r
+        n00 += wx * jx
+        n01 += wx * jy
+        n10 += wy * jx
+        n11 += wy * jy
+        if k == 3:
+            n02 += wx
+            n12 += wy
+            n20 += w2 * jx
+            n21 += w2 * jy
+            n22 += w2
+            r2 += w2 * r
+    if k == 2:
+        return [[n00, n01], [n10, n11]], [r0, r1]
+    return [[n00, n01, n02], [n10, n11, n12], [n20, n21, n22]], [r0, r1, r2]
 
 
 def _solve_small(a: list[list[float]], b: list[float]) -> list[float] | None:
@@ -590,7 +609,7 @@ class LSQ:
     def _surprise(fix: Fix) -> float:
         """How surprising the fix's residuals are: −log of the χ² tail probability (which,
         unlike the CDF, does not saturate for grossly bad fits)."""
-        return -float(chi2.logsf(fix.chi2, fix.dof)) if fix.dof > 0 else 0.0
+        return -chi2_logsf(fix.chi2, fix.dof) if fix.dof > 0 else 0.0
 
     def _consistent(self, fix: Fix) -> bool:
         if fix.dof == 0:

@@ -39,6 +39,9 @@ class PriorityQueue:
         self.key = key
         self.sources = list(sources)
         self._index = {s.name: i for i, s in enumerate(self.sources)}
+        self._timeouts = {s.name: s.timeout for s in self.sources}
+        self._order = tuple((s.name, s.timeout) for s in self.sources)
+        """(name, time-out) best first: what each routed value is checked against."""
         self._last: dict[str, float] = {}
         self._values: dict[str, float] = {}
 
@@ -79,12 +82,12 @@ class PriorityQueue:
         return source in self._index
 
     def timeout(self, source: str) -> float:
-        return self.sources[self._index[source]].timeout
+        return self._timeouts[source]
 
     def is_fresh(self, source: str, now: float) -> bool:
         """Whether ``source`` delivered within its time-out before ``now``."""
         last = self._last.get(source)
-        return last is not None and now - last <= self.timeout(source)
+        return last is not None and now - last <= self._timeouts[source]
 
     def last_value(self, source: str) -> float | None:
         """The latest value ``source`` delivered, fresh or not (for displays and logs)."""
@@ -92,9 +95,11 @@ class PriorityQueue:
 
     def current_source(self, now: float) -> str | None:
         """The leftmost source that is still alive at ``now``; None when every one is stale."""
-        for s in self.sources:
-            if self.is_fresh(s.name, now):
-                return s.name
+        last = self._last
+        for name, timeout in self._order:
+            t = last.get(name)
+            if t is not None and now - t <= timeout:  # is_fresh, inline: once per value routed
+                return name
         return None
 
     def offer(self, source: str, value: float, time: float) -> bool:

@@ -100,8 +100,8 @@ class CovarianceTrack:
     def take(self, ekf: EKF) -> None:
         if self.t and ekf.t <= self.t[-1]:
             return
-        (pxx, pxy), (_pyx, pyy) = ekf.position_covariance().tolist()
-        x, y = ekf.x[:2, 0].tolist()
+        (pxx, pxy), (_pyx, pyy) = ekf.position_covariance_floats()
+        x, y = ekf.x.item(0), ekf.x.item(1)
         self.t.append(ekf.t)
         self.x.append(x)
         self.y.append(y)

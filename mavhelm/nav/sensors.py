@@ -322,6 +322,7 @@ class SensorReader:
         self.incomplete = 0
         self.bad = 0
         self._routes: dict[str, list[tuple[SensorSpec, str, str]]] = {}
+        self._by_id = {id(s): s for s in self.sensors}
         for sensor in self.sensors:
             for variable, part, channel in self._variables(sensor):
                 self._routes.setdefault(variable, []).append((sensor, part, channel))
@@ -367,9 +368,8 @@ class SensorReader:
                     altitudes.append((t, value - sensor.lever[2]))
                 else:
                     parts.setdefault((id(sensor), t), {})[part] = value
-        by_id = {id(s): s for s in self.sensors}
         for (key, t), values in parts.items():
-            reading = self._joined(by_id[key], t, values)
+            reading = self._joined(self._by_id[key], t, values)
             if reading is not None:
                 readings.append(reading)
         readings.sort(key=lambda r: r.obs.t)
