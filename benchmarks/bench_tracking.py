@@ -498,7 +498,8 @@ def flown_helm(args: argparse.Namespace) -> Helm:
     if args.lead_time is not None:
         helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
                        lead_time=args.lead_time)
-    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD")):
+    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD"),
+                      ("max_turn_rate", "MaxTurnRate")):
         if getattr(args, key) is not None:
             helm = replace(helm, name=f"{helm.name}; {attr} {getattr(args, key):g}",
                            **{key: getattr(args, key)})
@@ -530,6 +531,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="fly the tasks' LeadTime (s) instead of the helm's Lead")
     parser.add_argument("--yaw-kp", type=float, default=None, help="fly this YAW_PID_KP")
     parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
+    parser.add_argument("--max-turn-rate", type=float, default=None,
+                        help="fly this iMAVLink MaxTurnRate (deg/s)")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "
