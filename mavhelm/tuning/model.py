@@ -92,10 +92,10 @@ def simulate_lag(command: Series, t: np.ndarray, gain: float, tau: float, delay:
     for i in range(len(t)):
         if i:
             dt = t[i] - t[i - 1]
-            a = math.exp(-dt / tau)
-            step = (1.0 - a) * (u[i - 1] - y)
-            bound = accel * dt
-            y += max(-bound, min(bound, step))
+            step = (1.0 - math.exp(-dt / tau)) * (u[i - 1] - y)
+            if math.isfinite(accel):
+                step = max(-accel * dt, min(accel * dt, step))
+            y += step
         out[i] = y
     return out
 
