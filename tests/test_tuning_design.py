@@ -67,3 +67,11 @@ def test_a_faster_task_swings_further_at_the_same_gains():
     fast = predict(g, SLEWED, 5.0, max_rudder=20.0, app_tick=10.0)
     assert slow.turn_swing is not None and fast.turn_swing is not None
     assert slow.turn_swing < fast.turn_swing
+
+
+def test_doubled_stamps_give_a_finite_response():
+    t = np.array([0.0, 0.1, 0.1, 0.2, 0.3])
+    command = Series(np.array([0.0]), np.array([50.0]))
+    for accel in (np.inf, 100.0):
+        out = simulate_lag(command, t, 0.05, 1.0, 0.0, accel=accel)
+        assert np.all(np.isfinite(out))
