@@ -75,3 +75,11 @@ def test_doubled_stamps_give_a_finite_response():
     for accel in (np.inf, 100.0):
         out = simulate_lag(command, t, 0.05, 1.0, 0.0, accel=accel)
         assert np.all(np.isfinite(out))
+
+
+def test_full_rudder_asks_for_at_least_the_fitted_rate_limit():
+    from mavhelm.tuning.gains import candidates
+    overshooting = YawModel(gain=2.3, time_constant=0.66, delay=0.0, rate_limit=101.0, rms=13.9,
+                            accel_limit=542.0)
+    assert {g.max_turn_rate for g in candidates(overshooting, 20.0)} == {101.0}
+    assert {g.max_turn_rate for g in candidates(SLEWED, 20.0)} == {75.0}  # 60 / 0.8

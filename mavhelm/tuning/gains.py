@@ -4,7 +4,9 @@ The heading loop (spec 1.4.1) is a PD on the heading error whose rudder becomes 
 turn rate (full rudder = ``MaxTurnRate``); the vehicle follows that rate through its fitted
 model (lag τ, delay d, rate limit r_max, acceleration limit a_max). ``MaxTurnRate`` is
 r_max / K: full rudder asks for the fastest turn the vehicle makes (asking for more only
-winds up the autopilot's rate controller). The rest is searched, not read off a formula: a
+winds up the autopilot's rate controller), and never less than r_max: a fit whose gain K
+comes out above 1 is a poor one (the real SITL motorboat-skid at 5 m/s, whose turn rate
+overshoots its command, fitted K 2.3 once, and MaxTurnRate 44 swung 2 m after every turn). The rest is searched, not read off a formula: a
 linear design (a PD zero on τ, a phase margin on d) misses what sets the swing after a turn —
 the rate and acceleration limits, the helm's tick and its 5-tap derivative (measured on the
 real SITL in ``benchmarks/bench_tracking.py``).
@@ -286,8 +288,9 @@ def predict(gains: Gains, yaw: YawModel, speed: float | None, *, max_rudder: flo
 
 
 def candidates(yaw: YawModel, max_rudder: float) -> list[Gains]:
-    """The searched gains: MaxTurnRate r_max / K, every Kψ, KD/KP and LeadTime."""
-    max_turn_rate = float(max(5.0, min(180.0, round(yaw.rate_limit / max(yaw.gain, 1e-3)))))
+    """The searched gains: MaxTurnRate r_max / K (at least r_max), every Kψ, KD/KP and
+    LeadTime."""
+    max_turn_rate = float(max(5.0, min(180.0, round(yaw.rate_limit / min(yaw.gain, 1.0)))))
     per_rudder = yaw.gain * max_turn_rate / max_rudder
     return [Gains(round(kpsi / per_rudder, 3), round(ratio * kpsi / per_rudder, 3),
                   max_turn_rate, lead_time, kpsi)
