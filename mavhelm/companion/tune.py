@@ -46,7 +46,8 @@ speed and heading, is outside the box: enough for a boat at a few m/s to coast t
 RECORDED = {"AP_CMD_YAW_RATE": ("turn_command", math.degrees),
             "AP_CMD_THRUST": ("thrust_command", lambda v: 100.0 * v),
             "INS_YAW_VEL": ("turn_rate", lambda v: -math.degrees(v)),
-            "NAV_SPEED": ("speed", float), "AP_SPEED": ("autopilot_speed", float)}
+            "NAV_SPEED": ("speed", float), "AP_SPEED": ("autopilot_speed", float),
+            "NAV_HEADING": ("heading", float), "NAV_X": ("x", float), "NAV_Y": ("y", float)}
 """Bus variable → the Recording's list and the conversion: turn rates to deg/s clockwise,
 thrust to percent."""
 

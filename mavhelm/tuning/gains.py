@@ -2,23 +2,24 @@
 
 The heading loop (spec 1.4.1) is a PD on the heading error whose rudder becomes a commanded
 turn rate (full rudder = ``MaxTurnRate``); the vehicle follows that rate through its fitted
-model (lag τ, delay d, rate limit r_max, acceleration limit a_max). ``MaxTurnRate`` is
-r_max / K: full rudder asks for the fastest turn the vehicle makes (asking for more only
-winds up the autopilot's rate controller), and never less than r_max: a fit whose gain K
-comes out above 1 is a poor one (the real SITL motorboat-skid at 5 m/s, whose turn rate
-overshoots its command, fitted K 2.3 once, and MaxTurnRate 44 swung 2 m after every turn). The rest is searched, not read off a formula: a
-linear design (a PD zero on τ, a phase margin on d) misses what sets the swing after a turn —
-the rate and acceleration limits, the helm's tick and its 5-tap derivative (measured on the
-real SITL in ``benchmarks/bench_tracking.py``).
+model (lag τ, delay d, rate limit r_max, acceleration limit a_max). ``MaxTurnRate`` is r_max /
+K: full rudder asks for the fastest turn the vehicle makes (asking for more only winds up the
+autopilot's rate controller), and never less than r_max: a fit whose gain K comes out above 1
+is a poor one (the real SITL motorboat-skid at 5 m/s, whose turn rate overshoots its command,
+fitted K 2.3 once, and MaxTurnRate 44 swung 2 m after every turn). The rest is searched, not
+read off a formula: a linear design (a PD zero on τ, a phase margin on d) misses what sets the
+swing after a turn — the rate and acceleration limits, the helm's tick and its 5-tap derivative
+(measured on the real SITL in ``benchmarks/bench_tracking.py``).
 
 Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the tasks'
 ``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
 
 - a 30° heading step: how long to stay within 1°, and the overshoot;
 - a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, each line left a
-  turn-in early as ``RouteTask.turn_in`` does): the largest cross-track error on the next leg
-  from 10 m along it (the issue's window), and how long after the leg starts its cross-track
-  error stays within 0.1 m.
+  turn-in early as ``RouteTask.turn_in`` does; the track over the ground following the
+  heading the fitted course lag late, the sideslip and the fix's latency): the largest
+  cross-track error on the next leg from 10 m along it (the issue's window), and how long
+  after the leg starts its cross-track error stays within 0.1 m.
 
 Each with the fitted delay and up to 0.1 s more (``DELAY_STEPS``: telemetry and GPS latency
 the fit does not see), the U-turn at 0.9–1.1 of the speed, the worst counting. The baseline
@@ -207,11 +208,24 @@ def _pursuit(p1: np.ndarray, p2: np.ndarray, x: np.ndarray, y: np.ndarray,
     return np.degrees(np.arctan2(gx - x, gy - y)), along, xte
 
 
+@dataclass(frozen=True)
+class Course:
+    """What the lines are flown at: the cruise speed, the tasks' turn-in lag (s) and the lag
+    of the track behind the heading."""
+
+    speed: float | None
+    turn_lag: float = 0.5
+    course_lag: float = 0.0
+    """How far the measured track over the ground lags the heading, s."""
+
+
 def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_tick: float,
-            speed: float, turn_lag: float) -> tuple[np.ndarray, np.ndarray]:
-    """A leg east along y = 0 to (0, 0), the join south to (0, -JOIN), the next leg west:
-    (largest |XTE| on the next leg in LEG_WINDOW, seconds from the start of that leg until
-    its XTE stays within LINE_TOLERANCE)."""
+            speed: float, course: Course) -> tuple[np.ndarray, np.ndarray]:
+    """A leg east along y = 0 to (0, 0), the join south to (0, -JOIN), the next leg west,
+    the track following the heading ``course.course_lag`` late: (largest |XTE| on the next
+    leg in LEG_WINDOW, seconds from the start of that leg until its XTE stays within
+    LINE_TOLERANCE)."""
+    turn_lag = course.turn_lag
     n = len(c.kp)
     lead = np.maximum(MIN_LEAD, c.lead_time * speed)
     leg = 10.0 * LEG_WINDOW[1]
@@ -223,6 +237,7 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
     y = np.zeros(n)
     k = np.zeros(n, dtype=int)
     loop = _Loop(c, yaw, delay, max_rudder, app_tick, psi0=90.0)
+    track = [loop.psi.copy() for _ in range(round(course.course_lag / DT) + 1)]
     swing, settle, leg_start, last_big = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     t = 0.0
     horizon = (run_in + JOIN + LEG_WINDOW[1]) / max(speed, 0.1) + 10.0
@@ -241,19 +256,12 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
         last_big = np.where(on_leg & (np.abs(xte) > LINE_TOLERANCE), t, last_big)
         settle = np.where(on_leg & (along <= LEG_WINDOW[1]), last_big - leg_start, settle)
         loop.step(desired, t)
-        heading = np.radians(loop.psi)
+        track.append(loop.psi.copy())
+        heading = np.radians(track.pop(0))
         x += speed * np.sin(heading) * DT
         y += speed * np.cos(heading) * DT
         t += DT
     return swing, settle
-
-
-@dataclass(frozen=True)
-class Course:
-    """What the lines are flown at: the cruise speed and the tasks' turn-in lag (s)."""
-
-    speed: float | None
-    turn_lag: float = 0.5
 
 
 def predict_all(gains: list[Gains], yaw: YawModel, course: Course, *, max_rudder: float,
@@ -269,7 +277,7 @@ def predict_all(gains: list[Gains], yaw: YawModel, course: Course, *, max_rudder
             swing = line = np.full(len(gains), np.nan)
             if speed is not None:
                 swing, line = _u_turn(c, yaw, delay, max_rudder, app_tick, speed * factor,
-                                      course.turn_lag)
+                                      course)
             figures.append(np.vstack([settle, overshoot, line, swing]))
     worst = np.fmax.reduce(np.stack(figures), axis=0)
     out = []

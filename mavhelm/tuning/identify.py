@@ -6,7 +6,14 @@ import math
 from dataclasses import dataclass, field, replace
 
 from mavhelm.tuning.gains import Course, Gains, Prediction, design
-from mavhelm.tuning.model import Series, SpeedModel, YawModel, fit_speed, fit_yaw
+from mavhelm.tuning.model import (
+    Series,
+    SpeedModel,
+    YawModel,
+    fit_course_lag,
+    fit_speed,
+    fit_yaw,
+)
 
 CRUISE_FRACTION = 0.8
 """The turn rate is fitted on the samples taken at this fraction of the cruise speed or more
@@ -27,6 +34,12 @@ class Recording:
     """Speed over the ground from the navigation (NAV_SPEED), m/s."""
     autopilot_speed: list[tuple[float, float]] = field(default_factory=list)
     """The autopilot's own speed estimate, m/s: used when the navigation has no speed."""
+    heading: list[tuple[float, float]] = field(default_factory=list)
+    """The navigation's heading (NAV_HEADING), degrees."""
+    x: list[tuple[float, float]] = field(default_factory=list)
+    """The navigation's position east (NAV_X), m."""
+    y: list[tuple[float, float]] = field(default_factory=list)
+    """The navigation's position north (NAV_Y), m."""
 
     def since(self, t0: float) -> Recording:
         """The samples from ``t0`` on (the response before the first command says nothing)."""
@@ -34,7 +47,8 @@ class Recording:
             return [p for p in s if p[0] >= t0]
         return Recording(keep(self.turn_command), keep(self.turn_rate),
                          keep(self.thrust_command), keep(self.speed),
-                         keep(self.autopilot_speed))
+                         keep(self.autopilot_speed), keep(self.heading), keep(self.x),
+                         keep(self.y))
 
 
 @dataclass(frozen=True)
@@ -48,6 +62,8 @@ class Tuning:
     baseline: Gains | None = None
     """The gains compared with (the product's defaults), None if none were given."""
     baseline_prediction: Prediction | None = None
+    course_lag: float = 0.0
+    """How far the track over the ground, as the navigation measures it, lags the heading, s."""
 
     def lead_for(self, thrust: float | None) -> float:
         """The Lead for a task at this Thrust (the manoeuvre's high thrust without one)."""
@@ -64,7 +80,8 @@ class Tuning:
             f"gain {y.gain:.2f}, limit {y.rate_limit:.1f} deg/s, acceleration limit {accel} "
             f"(fit RMS {y.rms:.2f} deg/s)",
             f"speed: {s.speed_at(100.0):.2f} m/s at full thrust, time constant "
-            f"{s.time_constant:.2f} s, delay {s.delay:.2f} s (fit RMS {s.rms:.3f} m/s)",
+            f"{s.time_constant:.2f} s, delay {s.delay:.2f} s (fit RMS {s.rms:.3f} m/s); the "
+            f"track over the ground lags the heading by {self.course_lag:.2f} s",
             f"gains (heading loop {g.loop_gain:.2f} /s):",
             f"  pHelm    YAW_PID_KP = {g.yaw_kp:g}",
             f"  pHelm    YAW_PID_KD = {g.yaw_kd:g}",
@@ -98,9 +115,12 @@ def identify(recording: Recording, *, max_rudder: float, app_tick: float,
     cruising = speeds.held(rates.t) >= CRUISE_FRACTION * speed.speed_at(cruise_thrust) \
         if len(speeds) else None
     yaw = fit_yaw(Series.of(data.turn_command), rates, cruising)
-    course = Course(speed.speed_at(cruise_thrust), turn_lag)
+    cruise = speed.speed_at(cruise_thrust)
+    lag = fit_course_lag(Series.of(data.heading), Series.of(data.x), Series.of(data.y),
+                         CRUISE_FRACTION * cruise)
+    course = Course(cruise, turn_lag, lag)
     gains, prediction, reference = design(yaw, max_rudder=max_rudder, app_tick=app_tick,
                                           course=course, baseline=baseline)
     return Tuning(yaw, speed, gains, prediction, cruise_thrust, max_rudder,
-                  None if reference is None else baseline, reference)
+                  None if reference is None else baseline, reference, lag)
 

@@ -123,6 +123,11 @@ ACCEL_GUESS = 200.0
 """The scale of a turn-rate acceleration limit, deg/s²."""
 ACCEL_MAX = 5000.0
 """A fitted acceleration limit this high is none (the lag alone sets the response)."""
+GAIN_RANGE = (0.5, 1.2)
+"""The turn-rate gain K the fit may find: an autopilot's rate controller (with its integral)
+delivers about the rate it is asked for, and a manoeuvre whose commands mostly saturate the
+vehicle barely shows K, so an unbounded fit wandered (K 1.5–2.3 on the real SITL, and the loop
+designed on it flew at half its intended gain, swinging 1–2 m after every turn)."""
 YAW_STARTS = ((0.1, 100.0), (0.5, 0.5 * ACCEL_MAX))
 """Where the turn-rate fit starts (τ s, a_max deg/s²): a slewing and a lagging vehicle (the
 clipped residual has a local minimum between them)."""
@@ -145,7 +150,8 @@ def fit_yaw(command: Series, response: Series, counted: np.ndarray | None = None
             return (simulate_lag(command, t, p[0], p[1], delay, p[2], start=r[0],
                                  accel=p[3]) - r)[mask]
         fits = [least_squares(residual, np.array([1.0, tau, peak * 1.05, accel]),
-                              bounds=([0.05, 0.02, 0.5, 5.0], [5.0, 20.0, 720.0, ACCEL_MAX]),
+                              bounds=([GAIN_RANGE[0], 0.02, 0.5, 5.0],
+                                      [GAIN_RANGE[1], 20.0, 720.0, ACCEL_MAX]),
                               x_scale=[1.0, 1.0, peak, ACCEL_GUESS])
                 for tau, accel in YAW_STARTS]
         return min(fits, key=lambda f: float(f.cost))
@@ -177,3 +183,35 @@ def fit_speed(command: Series, response: Series) -> SpeedModel:
     delay, fit = _best_delay(fit_at)
     gain, tau = (float(x) for x in fit.x)
     return SpeedModel(gain, tau, delay, float(np.sqrt(np.mean(fit.fun ** 2))))
+
+
+COURSE_LAGS = np.arange(0.0, 1.0001, 0.05)
+"""The lags of the track behind the heading tried, s."""
+
+
+def fit_course_lag(heading: Series, x: Series, y: Series, min_speed: float) -> float:
+    """How long (s) the direction of the track over the ground, from the navigation's
+    positions, lags its heading, fitted on the samples at ``min_speed`` or more: the boat's
+    sideslip in a turn and the position fix's latency, which the line follower sees and the
+    turn-rate model does not (about 0.3 s on the real SITL motorboat at 5 m/s). 0 when the
+    recording cannot tell."""
+    if min(len(heading), len(x), len(y)) < MIN_SAMPLES:
+        return 0.0
+    t = x.t
+    north = np.interp(t, y.t, y.y)
+    keep = np.concatenate([[True], np.diff(t) > 1e-6])
+    t, east, north = t[keep], x.y[keep], north[keep]
+    if len(t) < MIN_SAMPLES:
+        return 0.0
+    ve, vn = np.gradient(east, t), np.gradient(north, t)
+    moving = np.hypot(ve, vn) >= max(min_speed, 0.1)
+    if int(np.sum(moving)) < MIN_SAMPLES:
+        return 0.0
+    psi = np.unwrap(np.radians(heading.y))
+    course = np.arctan2(ve, vn)
+
+    def misfit(lag: float) -> float:
+        err = np.angle(np.exp(1j * (course - np.interp(t - lag, heading.t, psi))))
+        return float(np.mean(err[moving] ** 2))
+
+    return float(min(COURSE_LAGS, key=misfit))
