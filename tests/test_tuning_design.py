@@ -83,3 +83,16 @@ def test_full_rudder_asks_for_at_least_the_fitted_rate_limit():
                             accel_limit=542.0)
     assert {g.max_turn_rate for g in candidates(overshooting, 20.0)} == {101.0}
     assert {g.max_turn_rate for g in candidates(SLEWED, 20.0)} == {75.0}  # 60 / 0.8
+
+
+def test_the_tracks_lag_behind_the_heading_is_fitted():
+    from mavhelm.tuning.model import fit_course_lag
+    t = np.arange(0.0, 40.0, 0.1)
+    heading = 90.0 + 30.0 * np.sin(t / 2.0)  # zig-zags, degrees
+    course = np.radians(90.0 + 30.0 * np.sin((t - 0.3) / 2.0))  # the track 0.3 s late
+    east = np.cumsum(5.0 * np.sin(course) * 0.1)
+    north = np.cumsum(5.0 * np.cos(course) * 0.1)
+    lag = fit_course_lag(Series(t, heading), Series(t, east), Series(t, north), 4.0)
+    assert lag == pytest.approx(0.3, abs=0.06)
+    assert fit_course_lag(Series(t[:5], heading[:5]), Series(t[:5], east[:5]),
+                          Series(t[:5], north[:5]), 4.0) == 0.0
