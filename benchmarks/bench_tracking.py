@@ -75,31 +75,36 @@ WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
     rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
     rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
     rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
-    motorboat       2        calm     tuned     0.01 / 0.05  0.01 / 0.08
-    motorboat       2        wind     tuned     0.03 / 0.18  0.02 / 0.11
-    motorboat       5        calm     tuned     0.08 / 0.33  0.07 / 0.38
-    motorboat       5        wind     tuned     0.10 / 0.58  0.10 / 0.56
-    motorboat-skid  2        calm     tuned     0.01 / 0.08  0.01 / 0.09
-    motorboat-skid  2        wind     tuned     0.01 / 0.09  0.01 / 0.10
-    motorboat-skid  5        calm     tuned     0.12 / 0.82  0.12 / 0.55
-    motorboat-skid  5        wind     tuned     0.19 / 0.94  0.22 / 1.04
-    rover           2        calm     tuned     0.02 / 0.09  0.02 / 0.10
-    rover           5        calm     tuned     0.04 / 0.13  0.04 / 0.11
-    rover-skid      2        calm     tuned     0.01 / 0.08  0.01 / 0.08
-    rover-skid      5        calm     tuned     0.02 / 0.11  0.03 / 0.20
+    motorboat       2        calm     tuned     0.01 / 0.07  0.01 / 0.07
+    motorboat       2        wind     tuned     0.01 / 0.07  0.01 / 0.05
+    motorboat       5        calm     tuned     0.08 / 0.60  0.07 / 0.64
+    motorboat       5        wind     tuned     0.05 / 0.42  0.07 / 0.46
+    motorboat-skid  2        calm     tuned     0.01 / 0.03  0.01 / 0.03
+    motorboat-skid  2        wind     tuned     0.02 / 0.14  0.02 / 0.15
+    motorboat-skid  5        calm     tuned     0.08 / 0.29  0.09 / 0.43
+    motorboat-skid  5        wind     tuned     0.10 / 0.33  0.10 / 0.37
+    rover           2        calm     tuned     0.01 / 0.07  0.01 / 0.06
+    rover           5        calm     tuned     0.04 / 0.16  0.04 / 0.16
+    rover-skid      2        calm     tuned     0.01 / 0.05  0.01 / 0.06
+    rover-skid      5        calm     tuned     0.04 / 0.21  0.03 / 0.17
 
-(``tuned``: by ``mavhelm tune`` in that run, its gains searched on the fitted model against the
-defaults' (``mavhelm/tuning/gains.py``), a Lead in metres for the survey's speed. The gains it
-wrote: MaxTurnRate 68–105 (its fitted rate limit at the cruise speed, 59 deg/s for the
-motorboat at 5 m/s, 97–103 for the skid boats at 2), YAW_PID_KP 0.32–0.66, KD 0–0.23, LeadTime
-0.8–1.25 s; each predicted on the fitted model to settle a 30° heading step in 1.7–2.3 s,
-where the defaults are predicted 4–12 s with 2–10° of overshoot (the fitted turn-rate
-acceleration limit, about 110 deg/s² on every model, and the defaults' KD 0.2 through the
-helm's 5-tap derivative). The fitted model under-predicts the real swing (0.06–0.14 m
-predicted at 5 m/s on the motorboat, 0.3–0.4 m flown) but ranks the gains as the SITL does:
-gains by formula (a PD zero on the fitted lag, a phase margin on the fitted delay, no
-acceleration limit in the model) came out at MaxTurnRate 53–104, KP 0.41–0.57, KD 0.25–0.34
-and flew 0.20 / 1.20 on the motorboat at 5 m/s and 0.58 / 1.69 on the motorboat-skid.)
+(``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
+the defaults' (``mavhelm/tuning/gains.py``), a Lead in metres for the survey's speed. The
+settings it wrote: MaxTurnRate 68–117 (its fitted rate limit at the cruise speed: about 60
+deg/s for the motorboat at 5 m/s, 100–117 for the skid boats), YAW_PID_KP 0.44–0.75, KD
+0–0.12, LeadTime 1–1.5 s; in the stock wind at 5 m/s on the motorboat no candidate was
+predicted better than the defaults and it kept them. It predicts a 30° heading step settling
+in about 2 s where the defaults take 4–12 s with 2–12° of overshoot on the fitted models (the
+turn rate's acceleration limit, about 110 deg/s² on every model, against the defaults' KD 0.2
+through the helm's 5-tap derivative); it predicts the swing after a U-turn at 5 m/s at 0.1–0.2
+m where 0.2–0.7 m is flown, but ranks settings as the SITL does. Measured and not taken: gains
+by formula (a PD zero on the fitted lag, a phase margin on the fitted delay, no acceleration
+limit) came out at MaxTurnRate 53–104, KP 0.41–0.57, KD 0.25–0.34 and flew 0.20 / 1.20 on the
+motorboat at 5 m/s and 0.58 / 1.69 on the motorboat-skid; the turn-rate gain K fitted
+unbounded (it barely shows when the manoeuvre's commands saturate) came out at 1.5–2.3 on some
+runs, and the loop designed on it swung 1–2 m after every turn; without the track's lag
+behind the heading in the model (0.15–0.3 s: sideslip and the fix's latency), the tuned
+motorboat at 5 m/s flew 0.05–0.14 m RMS, 0.21–0.75 m max over four tunes.)
 
 Where the maximum comes from at 5 m/s (``--dump``, per leg; the defaults, calm): leg 0, a
 straight run in, holds 0.07–0.14 m; on legs 1–3 the maximum is 10–15 m along the leg, 2–3 s
@@ -111,11 +116,11 @@ loop's: a shorter LeadTime with a gentler loop (KP 0.6, KD 0.05, LeadTime 1 s, t
 models' best common choice) flew no better (Survey / TrackLines max: motorboat 0.86 / 0.40 and
 1.78 / 0.37, motorboat-skid 0.49 / 0.48 and 0.42 / -), while the defaults, flown again, swung
 0.47–0.82 m (motorboat) and 0.31–1.30 m (motorboat-skid) from one run to the next: the
-defaults are kept.
-The motorboat-skid's turn rate overshoots its command at 5 m/s (a rate controller the fitted
-first-order model with limits does not describe: fit residual 12 deg/s against 5 for the
-motorboat), which is why its tune does least well. Run to run, a row's maximum varies by
-about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s.
+defaults are kept. The motorboat-skid's turn rate overshoots its command at 5 m/s (fit
+residual 10–14 deg/s against 5–7 for the motorboat: a response the fitted model does not
+describe). Run to run, a row's maximum varies by about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s
+(these runs shared two cores with other SITLs, a load of about 3: at ``--speedup 10`` a late
+tick of the companion is ten times later in the vehicle's time).
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
