@@ -51,7 +51,8 @@ m, hunting), YAW_PID_KD 0.4 (motorboat 1.1–1.5 m), YAW_PID_KP 0.5 (motorboat-s
 and the turn-in's lag term at every corner, or at none (0.4–1.1 m).
 
 ``--helm-defaults`` flies the product's defaults instead, read from their declarations (no
-Lead: LeadTime × speed); ``--lead-time``, ``--yaw-kp`` and ``--yaw-kd`` override those.
+Lead: LeadTime × speed); ``--lead-time``, ``--yaw-kp``, ``--yaw-kd`` and ``--max-turn-rate``
+override those.
 
 ``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
 box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
@@ -74,27 +75,52 @@ WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
     rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
     rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
     rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
-    motorboat       2        calm     tuned     0.02 / 0.24  0.02 / 0.11
-    motorboat       2        wind     tuned     0.03 / 0.18  0.02 / 0.17
-    motorboat       5        calm     tuned     0.20 / 1.20  0.20 / 1.23
-    motorboat-skid  2        calm     tuned     0.07 / 0.61  0.02 / 0.12
-    motorboat-skid  5        calm     tuned     0.58 / 1.69  0.54 / 1.80
-    rover           2        calm     tuned     0.02 / 0.14  0.02 / 0.10
-    rover           5        calm     tuned     0.16 / 0.85  0.15 / 0.77
-    rover-skid      2        calm     tuned     0.02 / 0.18  0.02 / 0.19
-    rover-skid      5        calm     tuned     0.13 / 0.60  0.09 / 0.54
+    motorboat       2        calm     tuned     0.01 / 0.07  0.01 / 0.07
+    motorboat       2        wind     tuned     0.01 / 0.07  0.01 / 0.05
+    motorboat       5        calm     tuned     0.08 / 0.60  0.07 / 0.64
+    motorboat       5        wind     tuned     0.05 / 0.42  0.07 / 0.46
+    motorboat-skid  2        calm     tuned     0.01 / 0.03  0.01 / 0.03
+    motorboat-skid  2        wind     tuned     0.02 / 0.14  0.02 / 0.15
+    motorboat-skid  5        calm     tuned     0.08 / 0.29  0.09 / 0.43
+    motorboat-skid  5        wind     tuned     0.10 / 0.33  0.10 / 0.37
+    rover           2        calm     tuned     0.01 / 0.07  0.01 / 0.06
+    rover           5        calm     tuned     0.04 / 0.16  0.04 / 0.16
+    rover-skid      2        calm     tuned     0.01 / 0.05  0.01 / 0.06
+    rover-skid      5        calm     tuned     0.04 / 0.21  0.03 / 0.17
 
-(``tuned``: by ``mavhelm tune`` in that run, a Lead in metres for the survey's speed; a tune's
-gains vary a little from run to run: MaxTurnRate 53–104, YAW_PID_KP 0.41–0.57, KD 0.25–0.34,
-a heading loop of 1.2–2.5 /s, slower than the defaults' 3.4 /s.)
+(``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
+the defaults' (``mavhelm/tuning/gains.py``), a Lead in metres for the survey's speed. The
+settings it wrote: MaxTurnRate 68–117 (its fitted rate limit at the cruise speed: about 60
+deg/s for the motorboat at 5 m/s, 100–117 for the skid boats), YAW_PID_KP 0.44–0.75, KD
+0–0.12, LeadTime 1–1.5 s; in the stock wind at 5 m/s on the motorboat no candidate was
+predicted better than the defaults and it kept them. It predicts a 30° heading step settling
+in about 2 s where the defaults take 4–12 s with 2–12° of overshoot on the fitted models (the
+turn rate's acceleration limit, about 110 deg/s² on every model, against the defaults' KD 0.2
+through the helm's 5-tap derivative); it predicts the swing after a U-turn at 5 m/s at 0.1–0.2
+m where 0.2–0.7 m is flown, but ranks settings as the SITL does. Measured and not taken: gains
+by formula (a PD zero on the fitted lag, a phase margin on the fitted delay, no acceleration
+limit) came out at MaxTurnRate 53–104, KP 0.41–0.57, KD 0.25–0.34 and flew 0.20 / 1.20 on the
+motorboat at 5 m/s and 0.58 / 1.69 on the motorboat-skid; the turn-rate gain K fitted
+unbounded (it barely shows when the manoeuvre's commands saturate) came out at 1.5–2.3 on some
+runs, and the loop designed on it swung 1–2 m after every turn; without the track's lag
+behind the heading in the model (0.15–0.3 s: sideslip and the fix's latency), the tuned
+motorboat at 5 m/s flew 0.05–0.14 m RMS, 0.21–0.75 m max over four tunes.)
 
-At WP_SPEED 2 the defaults hold every model within 0.15 m. At 5 m/s what is left is the
-corner onto each leg: the Survey and the chained TrackLines turn in a Lead (7.5 m) and the
-heading loop's lag before it, and the vehicle is then either still closing on the leg at
-10 m along it or has swung 0.4–1 m past it (one run to the next differs by as much); the
-motorboat-skid at 5 m/s also hunts ±0.5 m mid-leg (its yaw at speed wants a gentler loop than
-the defaults'; its tuned loop did worse). Run to run, a row's maximum varies by
-about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s.
+Where the maximum comes from at 5 m/s (``--dump``, per leg; the defaults, calm): leg 0, a
+straight run in, holds 0.07–0.14 m; on legs 1–3 the maximum is 10–15 m along the leg, 2–3 s
+after the U-turn onto it over the 20 m join, the vehicle still closing on the leg (same side
+as the join) or at its first swing past it; from 30 m along every leg holds within 0.1 m (no
+mid-leg hunting at the defaults in these runs). So it is the capture after a U-turn whose join
+is only 4 s long at 5 m/s, against a pursuit time constant of LeadTime 1.5 s plus the heading
+loop's: a shorter LeadTime with a gentler loop (KP 0.6, KD 0.05, LeadTime 1 s, the fitted
+models' best common choice) flew no better (Survey / TrackLines max: motorboat 0.86 / 0.40 and
+1.78 / 0.37, motorboat-skid 0.49 / 0.48 and 0.42 / -), while the defaults, flown again, swung
+0.47–0.82 m (motorboat) and 0.31–1.30 m (motorboat-skid) from one run to the next: the
+defaults are kept. The motorboat-skid's turn rate overshoots its command at 5 m/s (fit
+residual 10–14 deg/s against 5–7 for the motorboat: a response the fitted model does not
+describe). Run to run, a row's maximum varies by about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s
+(these runs shared two cores with other SITLs, a load of about 3: at ``--speedup 10`` a late
+tick of the companion is ten times later in the vehicle's time).
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:
@@ -498,7 +524,8 @@ def flown_helm(args: argparse.Namespace) -> Helm:
     if args.lead_time is not None:
         helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
                        lead_time=args.lead_time)
-    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD")):
+    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD"),
+                      ("max_turn_rate", "MaxTurnRate")):
         if getattr(args, key) is not None:
             helm = replace(helm, name=f"{helm.name}; {attr} {getattr(args, key):g}",
                            **{key: getattr(args, key)})
@@ -530,6 +557,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="fly the tasks' LeadTime (s) instead of the helm's Lead")
     parser.add_argument("--yaw-kp", type=float, default=None, help="fly this YAW_PID_KP")
     parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
+    parser.add_argument("--max-turn-rate", type=float, default=None,
+                        help="fly this iMAVLink MaxTurnRate (deg/s)")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")
     parser.add_argument("--stream-hz", type=float, default=None,
                         help="ask for ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT at this "

@@ -25,11 +25,15 @@ from collections.abc import Callable, Set
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mavhelm.companion.bridge.config import IMAVLINK_SCHEMA
 from mavhelm.companion.companion import Companion
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import AutopilotClock, WallClock
 from mavhelm.core.mission import Mission, load_mission, parse_mission, read_text_file
+from mavhelm.tasks.pid import HelmGains
+from mavhelm.tasks.trackline import DEFAULT_LEAD_TIME, TURN_LAG_S
+from mavhelm.tuning.gains import Gains
 from mavhelm.tuning.identify import Recording, Tuning, identify
 from mavhelm.tuning.manoeuvre import STOP_FLAG, Box, Manoeuvre, tune_mission_text
 from mavhelm.tuning.model import FitError
@@ -42,7 +46,8 @@ speed and heading, is outside the box: enough for a boat at a few m/s to coast t
 RECORDED = {"AP_CMD_YAW_RATE": ("turn_command", math.degrees),
             "AP_CMD_THRUST": ("thrust_command", lambda v: 100.0 * v),
             "INS_YAW_VEL": ("turn_rate", lambda v: -math.degrees(v)),
-            "NAV_SPEED": ("speed", float), "AP_SPEED": ("autopilot_speed", float)}
+            "NAV_SPEED": ("speed", float), "AP_SPEED": ("autopilot_speed", float),
+            "NAV_HEADING": ("heading", float), "NAV_X": ("x", float), "NAV_Y": ("y", float)}
 """Bus variable → the Recording's list and the conversion: turn rates to deg/s clockwise,
 thrust to percent."""
 
@@ -154,7 +159,16 @@ class TuneSession:
         gains = self.companion.helm.gains
         return identify(self.watch.recording, max_rudder=gains.max_rudder,
                         app_tick=self.companion.helm.app_tick,
-                        cruise_thrust=self.manoeuvre.high_thrust)
+                        cruise_thrust=self.manoeuvre.high_thrust, baseline=default_gains(),
+                        turn_lag=TURN_LAG_S)
+
+
+def default_gains() -> Gains:
+    """The product's defaults, read from their declarations: what a tune must beat."""
+    rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
+    helm = HelmGains()
+    return Gains(yaw_kp=helm.yaw_kp, yaw_kd=helm.yaw_kd,
+                 max_turn_rate=float(rate), lead_time=DEFAULT_LEAD_TIME)
 
 
 def tune_mission(mission: Mission, box: Box, manoeuvre: Manoeuvre, folder: Path) -> Path:

@@ -1,49 +1,69 @@
-"""The gains that suit a fitted vehicle, and how fast they are predicted to settle.
+"""The gains that suit a fitted vehicle, chosen by predicting how each candidate flies.
 
 The heading loop (spec 1.4.1) is a PD on the heading error whose rudder becomes a commanded
-turn rate (full rudder = ``MaxTurnRate``). With the fitted turn-rate model (lag τ, delay d,
-limit r_max):
+turn rate (full rudder = ``MaxTurnRate``); the vehicle follows that rate through its fitted
+model (lag τ, delay d, rate limit r_max, acceleration limit a_max). ``MaxTurnRate`` is r_max /
+K: full rudder asks for the fastest turn the vehicle makes (asking for more only winds up the
+autopilot's rate controller), and never less than r_max: a fit whose gain K comes out above 1
+is a poor one (the real SITL motorboat-skid at 5 m/s, whose turn rate overshoots its command,
+fitted K 2.3 once, and MaxTurnRate 44 swung 2 m after every turn). The rest is searched, not
+read off a formula: a linear design (a PD zero on τ, a phase margin on d) misses what sets the
+swing after a turn — the rate and acceleration limits, the helm's tick and its 5-tap derivative
+(measured on the real SITL in ``benchmarks/bench_tracking.py``).
 
-- ``MaxTurnRate`` = r_max / K: full rudder asks for the fastest turn the vehicle makes, so
-  every degree of rudder below that is a turn it can follow;
-- ``YAW_PID_KD`` = KP·τ puts the PD's zero on the rate lag, leaving the loop an integrator
-  with a delay, Kψ·e^(−sd)/s (Kψ = KP·MaxTurnRate/MAXRUDDER, per second); at most
-  ``KD_MAX_RATIO``·KP;
-- Kψ for a 60° phase margin, (π/6)/d, with d the fitted delay plus one helm tick (the
-  command waits for the next tick, and the fit's delay is only as fine as a tick), and no
-  more than ``KPSI_MAX``;
-- the TrackLine/Survey ``Lead`` for a cross-track damping ζ = 0.9 at the task's speed
-  (``mavhelm.tasks.trackline``: ζ = ½·√(Kψ·Lead/V)), plus the distance run during the
-  loop's lag and delay.
+Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the tasks'
+``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
 
-The settling times are predicted by simulating these loops on the model (numerically, with
-the rudder and turn-rate limits), not read off a formula.
+- a 30° heading step: how long to stay within 1°, and the overshoot;
+- a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, each line left a
+  turn-in early as ``RouteTask.turn_in`` does; the track over the ground following the
+  heading the fitted course lag late, the sideslip and the fix's latency): the largest
+  cross-track error on the next leg from 10 m along it (the issue's window), and how long
+  after the leg starts its cross-track error stays within 0.1 m.
+
+Each with the fitted delay and up to 0.1 s more (``DELAY_STEPS``: telemetry and GPS latency
+the fit does not see), the U-turn at 0.9–1.1 of the speed, the worst counting. The baseline
+(the product's defaults) is one of the candidates, and a candidate is taken only if it is
+predicted no slower and no less damped than the baseline on every one of these, so the tune
+never writes gains predicted worse than the defaults.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from mavhelm.tuning.model import YawModel
 
-KPSI_MAX = 2.5
-"""Fastest heading loop proposed, 1/s. On the real SITL motorboat a tune that fitted a 0.1 s
-delay and proposed 3.5 /s (with KD 0.8 × KP) swung ±3.6 m after turns; 2.1–2.6 /s held
-0.04 m RMS."""
-PHASE_MARGIN = math.pi / 6.0
-"""Phase margin kept in the heading loop: 60°, lightly damped at most."""
-ZETA = 0.9
-"""Damping of the cross-track loop the Lead is chosen for."""
+FIR_TAPS = 5
+"""The helm's derivative averages this many differences (``mavhelm.tasks.pid``)."""
+DT = 0.02
+"""Simulation step, s."""
+DELAY_STEPS = (0.0, 0.05, 0.1)
+"""Delays added to the fitted one, s: telemetry and GPS latency the fit does not see."""
+SPEED_SPREAD = (0.9, 1.0, 1.1)
+"""The U-turn is flown at these fractions of the cruise speed: a line's speed varies, and the
+swing after a turn is sensitive to it (one run to the next on the SITL differs by ±0.3 m at
+5 m/s), so a candidate must do well across them, not at one lucky point."""
+KPSI = tuple(float(v) for v in np.geomspace(1.0, 5.0, 9))
+"""Loop gains tried, 1/s (degrees per second of turn per degree of heading error)."""
+KD_RATIOS = (0.0, 0.1, 0.2, 0.3, 0.45, 0.6)
+"""KD/KP tried: the helm's derivative is a 5-tap average two ticks late, so more adds lag."""
+LEAD_TIMES = (0.8, 1.0, 1.25, 1.5, 2.0)
+"""LeadTime tried, s."""
 MIN_LEAD = 1.0
-KD_MAX_RATIO = 0.6
-"""KD at most this many times KP: the helm's derivative is a 5-tap average of heading
-differences, itself two ticks late, so a longer one adds lag rather than cancelling it."""
 HEADING_STEP = 30.0
 HEADING_TOLERANCE = 1.0
-LINE_OFFSET = 2.0
+HEADING_HORIZON = 12.0
 LINE_TOLERANCE = 0.1
+JOIN = 20.0
+"""The survey's join between legs, m (``benchmarks/bench_tracking.py``'s pattern)."""
+LEG_WINDOW = (10.0, 60.0)
+"""Where on the next leg the swing is measured, m along it."""
+SLACK = 1.02
+"""A candidate may be this much (2 %) worse than the baseline on one figure (a tie)."""
 
 
 @dataclass(frozen=True)
@@ -51,26 +71,15 @@ class Gains:
     yaw_kp: float
     yaw_kd: float
     max_turn_rate: float
-    loop_gain: float
-    """Kψ, 1/s: degrees per second of turn per degree of heading error."""
-    delay: float
-    """Delay the loop was designed for, s (fitted delay plus one helm tick)."""
+    lead_time: float
+    """The tasks' LeadTime, s: the Lead is this many seconds of the speed."""
+    loop_gain: float = math.nan
+    """Kψ on the fitted vehicle, 1/s: degrees per second of turn per degree of heading
+    error."""
 
     def lead(self, speed: float) -> float:
         """The TrackLine/Survey Lead (m) for a task run at ``speed`` (m/s)."""
-        v = max(speed, 0.1)
-        return max(MIN_LEAD, round(v * ((2.0 * ZETA) ** 2 / self.loop_gain + self.delay), 1))
-
-
-def design(yaw: YawModel, *, max_rudder: float, app_tick: float) -> Gains:
-    """The heading-loop gains and MaxTurnRate for this vehicle under this helm."""
-    max_turn_rate = max(5.0, min(180.0, round(yaw.rate_limit / max(yaw.gain, 1e-3))))
-    delay = yaw.delay + 1.0 / app_tick
-    kpsi = min(KPSI_MAX, PHASE_MARGIN / max(delay, 1e-3))
-    loop_per_rudder = yaw.gain * max_turn_rate / max_rudder
-    kp = kpsi / loop_per_rudder
-    kd = min(KD_MAX_RATIO * kp, kp * yaw.time_constant)
-    return Gains(round(kp, 3), round(kd, 3), float(max_turn_rate), kpsi, delay)
+        return max(MIN_LEAD, round(max(speed, 0.0) * self.lead_time, 1))
 
 
 @dataclass(frozen=True)
@@ -80,73 +89,242 @@ class Prediction:
     heading_overshoot: float
     """Degrees past the new heading."""
     line_settle: float | None
-    """Seconds for a 2 m offset from a line to stay within 0.1 m (None: no speed)."""
+    """Seconds from the start of a survey's next leg, after the U-turn onto it, until the
+    cross-track error stays within 0.1 m (None: no speed)."""
+    turn_swing: float | None = None
+    """Largest cross-track error (m) on a survey's next leg from 10 m along it, after the
+    U-turn onto it (None: no speed)."""
+
+    def no_worse_than(self, other: Prediction) -> bool:
+        """At least as fast and as well damped as ``other`` on every figure (within SLACK)."""
+        pairs = [(self.heading_settle, other.heading_settle),
+                 (self.heading_overshoot, max(other.heading_overshoot, 0.5)),
+                 (self.line_settle, other.line_settle), (self.turn_swing, other.turn_swing)]
+        return all(a <= b * SLACK + 1e-9 for a, b in pairs if a is not None and b is not None)
+
+    def describe(self, speed: float | None) -> str:
+        text = (f"a {HEADING_STEP:g} deg heading step settles within {HEADING_TOLERANCE:g} deg "
+                f"in {self.heading_settle:.1f} s (overshoot {self.heading_overshoot:.1f} deg)")
+        if self.line_settle is not None and speed is not None:
+            text += (f"; at {speed:.2f} m/s a survey's U-turn swings {self.turn_swing:.2f} m "
+                     f"on the next leg from 10 m along it, within {LINE_TOLERANCE:g} m "
+                     f"{self.line_settle:.1f} s after the leg starts")
+        return text
 
 
-def _settle_time(t: list[float], err: list[float], tol: float) -> float:
-    for i in range(len(err) - 1, -1, -1):
-        if abs(err[i]) > tol:
-            return t[min(i + 1, len(t) - 1)]
-    return 0.0
+@dataclass(frozen=True)
+class Candidates:
+    """Arrays of gains, one entry per candidate."""
+
+    kp: np.ndarray
+    kd: np.ndarray
+    max_turn_rate: np.ndarray
+    lead_time: np.ndarray
+
+    @classmethod
+    def of(cls, gains: list[Gains]) -> Candidates:
+        return cls(*(np.array([getattr(g, f) for g in gains], dtype=float)
+                     for f in ("yaw_kp", "yaw_kd", "max_turn_rate", "lead_time")))
 
 
-@dataclass
 class _Loop:
-    """The simulated heading loop's state."""
+    """The heading loop of every candidate, stepped together: the helm's PD with its 5-tap
+    derivative at each tick, the rudder as a turn rate, the vehicle's delay, lag and limits."""
 
-    psi: float = 0.0
-    rate: float = 0.0
-    command: float = 0.0
-    last_err: float = 0.0
-    ticks: int = 0
-    next_tick: float = 0.0
-    queue: list[tuple[float, float]] = field(default_factory=list)
-    """Commands in flight: (time they take effect, turn rate)."""
+    def __init__(self, c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
+                 app_tick: float, psi0: float = 0.0) -> None:
+        n = len(c.kp)
+        self.c, self.yaw, self.max_rudder = c, yaw, max_rudder
+        self.per_rudder = c.max_turn_rate / max_rudder
+        self.period = 1.0 / app_tick
+        self.psi = np.full(n, psi0)
+        self.rate = np.zeros(n)
+        self.last_err = np.zeros(n)
+        self.diffs: list[np.ndarray] = []
+        self.pending = [np.zeros(n) for _ in range(max(1, round(delay / DT)))]
+        self.command = np.zeros(n)
+        self.next_tick = 0.0
+        self.lag = 1.0 - math.exp(-DT / max(yaw.time_constant, 1e-3))
+
+    def step(self, desired: np.ndarray, t: float) -> None:
+        if t >= self.next_tick - 1e-9:
+            err = (desired - self.psi + 180.0) % 360.0 - 180.0
+            if self.next_tick > 0.0:
+                diff = (err - self.last_err + 180.0) % 360.0 - 180.0
+                self.diffs = [*self.diffs[-(FIR_TAPS - 1):], diff / self.period]
+            self.last_err = err
+            d = sum(self.diffs) / len(self.diffs) if self.diffs else 0.0
+            rudder = np.clip(self.c.kp * err + self.c.kd * d, -self.max_rudder, self.max_rudder)
+            self.command = rudder * self.per_rudder
+            self.next_tick += self.period
+        self.pending.append(self.command)
+        applied = self.pending.pop(0)
+        yaw = self.yaw
+        target = np.clip(yaw.gain * applied, -yaw.rate_limit, yaw.rate_limit)
+        change = (target - self.rate) * self.lag
+        bound = yaw.accel_limit * DT
+        self.rate += np.clip(change, -bound, bound)
+        self.psi += self.rate * DT
 
 
-def _heading_loop(gains: Gains, yaw: YawModel, max_rudder: float,
-                  app_tick: float) -> Callable[[float, _Loop, float, float], None]:
-    """A closure stepping the heading loop: (desired heading, state, t, dt)."""
-    per_rudder = gains.max_turn_rate / max_rudder
-    period = 1.0 / app_tick
+def _settle(err: np.ndarray, ts: np.ndarray, tol: float) -> np.ndarray:
+    """Per candidate (column), the time after which |err| stays within ``tol``."""
+    outside = np.abs(err) > tol
+    last = np.where(outside.any(axis=0), len(ts) - 1 - np.argmax(outside[::-1], axis=0), -1)
+    return np.where(last < 0, 0.0, ts[np.minimum(last + 1, len(ts) - 1)])
 
-    def step(desired: float, s: _Loop, t: float, dt: float) -> None:
-        if t >= s.next_tick:
-            err = desired - s.psi
-            d_err = (err - s.last_err) / period if s.ticks else 0.0
-            s.last_err, s.ticks = err, s.ticks + 1
-            rudder = max(-max_rudder, min(max_rudder, gains.yaw_kp * err + gains.yaw_kd * d_err))
-            s.queue.append((t + yaw.delay, rudder * per_rudder))
-            s.next_tick += period
-        while s.queue and s.queue[0][0] <= t:
-            s.command = s.queue.pop(0)[1]
-        target = max(-yaw.rate_limit, min(yaw.rate_limit, yaw.gain * s.command))
-        s.rate += (target - s.rate) * (1.0 - math.exp(-dt / yaw.time_constant))
-        s.psi += s.rate * dt
 
-    return step
+def _heading_step(c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
+                  app_tick: float) -> tuple[np.ndarray, np.ndarray]:
+    loop = _Loop(c, yaw, delay, max_rudder, app_tick)
+    desired = np.full(len(c.kp), HEADING_STEP)
+    steps = int(HEADING_HORIZON / DT)
+    errs = np.empty((steps, len(c.kp)))
+    for i in range(steps):
+        loop.step(desired, i * DT)
+        errs[i] = HEADING_STEP - loop.psi
+    ts = np.arange(steps) * DT
+    return _settle(errs, ts, HEADING_TOLERANCE), np.maximum(0.0, -errs.min(axis=0))
+
+
+def _turn_in(lead: np.ndarray, speed: float, following: float, current: float,
+             turn_lag: float) -> np.ndarray:
+    """``RouteTask.turn_in`` for a 90° turn: a Lead (tan 45°), onto a longer line the lag's
+    run too, at most half of either line."""
+    ahead = lead + (turn_lag * speed if following > current else 0.0)
+    return np.minimum(ahead, 0.5 * min(following, current))
+
+
+def _pursuit(p1: np.ndarray, p2: np.ndarray, x: np.ndarray, y: np.ndarray,
+             lead: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(desired heading, along, xte) of carrot-and-donkey on each candidate's line."""
+    dx, dy = p2[:, 0] - p1[:, 0], p2[:, 1] - p1[:, 1]
+    length = np.hypot(dx, dy)
+    ux, uy = dx / length, dy / length
+    rx, ry = x - p1[:, 0], y - p1[:, 1]
+    along, xte = rx * ux + ry * uy, rx * uy - ry * ux
+    s = np.minimum(along + lead, length)
+    gx, gy = p1[:, 0] + s * ux, p1[:, 1] + s * uy
+    return np.degrees(np.arctan2(gx - x, gy - y)), along, xte
+
+
+@dataclass(frozen=True)
+class Course:
+    """What the lines are flown at: the cruise speed, the tasks' turn-in lag (s) and the lag
+    of the track behind the heading."""
+
+    speed: float | None
+    turn_lag: float = 0.5
+    course_lag: float = 0.0
+    """How far the measured track over the ground lags the heading, s."""
+
+
+def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_tick: float,
+            speed: float, course: Course) -> tuple[np.ndarray, np.ndarray]:
+    """A leg east along y = 0 to (0, 0), the join south to (0, -JOIN), the next leg west,
+    the track following the heading ``course.course_lag`` late: (largest |XTE| on the next
+    leg in LEG_WINDOW, seconds from the start of that leg until its XTE stays within
+    LINE_TOLERANCE)."""
+    turn_lag = course.turn_lag
+    n = len(c.kp)
+    lead = np.maximum(MIN_LEAD, c.lead_time * speed)
+    leg = 10.0 * LEG_WINDOW[1]
+    corners = np.array([[-leg, 0.0], [0.0, 0.0], [0.0, -JOIN], [-leg, -JOIN]])
+    leave = [_turn_in(lead, speed, JOIN, leg, turn_lag),
+             _turn_in(lead, speed, leg, JOIN, turn_lag), np.zeros(n)]
+    run_in = JOIN + 2.0 * speed * max(LEAD_TIMES)
+    x = np.full(n, -run_in)
+    y = np.zeros(n)
+    k = np.zeros(n, dtype=int)
+    loop = _Loop(c, yaw, delay, max_rudder, app_tick, psi0=90.0)
+    track = [loop.psi.copy() for _ in range(round(course.course_lag / DT) + 1)]
+    swing, settle, leg_start, last_big = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+    t = 0.0
+    horizon = (run_in + JOIN + LEG_WINDOW[1]) / max(speed, 0.1) + 10.0
+    while t < horizon:
+        desired, along, xte = _pursuit(corners[k], corners[k + 1], x, y, lead)
+        length = np.hypot(*(corners[k + 1] - corners[k]).T)
+        turn_in = np.choose(k, leave)
+        advance = (k < 2) & (along >= length - np.maximum(turn_in, 1.0))
+        k = np.where(advance, k + 1, k)
+        if advance.any():
+            desired, along, xte = _pursuit(corners[k], corners[k + 1], x, y, lead)
+            leg_start = np.where(advance & (k == 2), t, leg_start)
+        on_leg = k == 2
+        window = on_leg & (along >= LEG_WINDOW[0]) & (along <= LEG_WINDOW[1])
+        swing = np.where(window, np.maximum(swing, np.abs(xte)), swing)
+        last_big = np.where(on_leg & (np.abs(xte) > LINE_TOLERANCE), t, last_big)
+        settle = np.where(on_leg & (along <= LEG_WINDOW[1]), last_big - leg_start, settle)
+        loop.step(desired, t)
+        track.append(loop.psi.copy())
+        heading = np.radians(track.pop(0))
+        x += speed * np.sin(heading) * DT
+        y += speed * np.cos(heading) * DT
+        t += DT
+    return swing, settle
+
+
+def predict_all(gains: list[Gains], yaw: YawModel, course: Course, *, max_rudder: float,
+                app_tick: float) -> list[Prediction]:
+    """Each candidate's prediction: the worst over DELAY_STEPS and SPEED_SPREAD."""
+    c = Candidates.of(gains)
+    speed = course.speed if course.speed is not None and course.speed > 0.05 else None
+    figures = []
+    for extra in DELAY_STEPS:
+        delay = yaw.delay + extra
+        settle, overshoot = _heading_step(c, yaw, delay, max_rudder, app_tick)
+        for factor in SPEED_SPREAD if speed is not None else (1.0,):
+            swing = line = np.full(len(gains), np.nan)
+            if speed is not None:
+                swing, line = _u_turn(c, yaw, delay, max_rudder, app_tick, speed * factor,
+                                      course)
+            figures.append(np.vstack([settle, overshoot, line, swing]))
+    worst = np.fmax.reduce(np.stack(figures), axis=0)
+    out = []
+    for i in range(len(gains)):
+        h_settle, h_over, l_settle, l_swing = (float(v) for v in worst[:, i])
+        out.append(Prediction(h_settle, h_over, None if speed is None else l_settle,
+                              None if speed is None else l_swing))
+    return out
 
 
 def predict(gains: Gains, yaw: YawModel, speed: float | None, *, max_rudder: float,
-            app_tick: float, horizon: float = 40.0, dt: float = 0.01) -> Prediction:
-    """Simulate a heading step and, at ``speed``, the capture of a line from 2 m off it."""
-    step = _heading_loop(gains, yaw, max_rudder, app_tick)
-    state, ts, errs = _Loop(), [], []
-    for i in range(int(horizon / dt)):
-        step(HEADING_STEP, state, i * dt, dt)
-        ts.append(i * dt)
-        errs.append(HEADING_STEP - state.psi)
-    heading_settle = _settle_time(ts, errs, HEADING_TOLERANCE)
-    overshoot = max(0.0, -min(errs))
-    line = None
-    if speed is not None and speed > 0.05:
-        lead = gains.lead(speed)
-        state, ts, xs = _Loop(), [], []
-        y = LINE_OFFSET
-        for i in range(int(horizon / dt)):
-            step(-math.degrees(math.atan(y / lead)), state, i * dt, dt)
-            y += speed * math.sin(math.radians(state.psi)) * dt
-            ts.append(i * dt)
-            xs.append(y)
-        line = _settle_time(ts, xs, LINE_TOLERANCE)
-    return Prediction(heading_settle, overshoot, line)
+            app_tick: float, turn_lag: float = 0.5) -> Prediction:
+    """One set of gains' prediction on this vehicle at ``speed``."""
+    return predict_all([gains], yaw, Course(speed, turn_lag), max_rudder=max_rudder,
+                       app_tick=app_tick)[0]
+
+
+def candidates(yaw: YawModel, max_rudder: float) -> list[Gains]:
+    """The searched gains: MaxTurnRate r_max / K (at least r_max), every Kψ, KD/KP and
+    LeadTime."""
+    max_turn_rate = float(max(5.0, min(180.0, round(yaw.rate_limit / min(yaw.gain, 1.0)))))
+    per_rudder = yaw.gain * max_turn_rate / max_rudder
+    return [Gains(round(kpsi / per_rudder, 3), round(ratio * kpsi / per_rudder, 3),
+                  max_turn_rate, lead_time, kpsi)
+            for kpsi in KPSI for ratio in KD_RATIOS for lead_time in LEAD_TIMES]
+
+
+def score(p: Prediction) -> float:
+    """Smaller is better: the swing after a turn first, then how fast the loop settles."""
+    swing = p.turn_swing if p.turn_swing is not None else 0.0
+    line = p.line_settle if p.line_settle is not None else 0.0
+    return swing + 0.02 * line + 0.02 * p.heading_settle + 0.01 * p.heading_overshoot
+
+
+def design(yaw: YawModel, *, max_rudder: float, app_tick: float, course: Course | None = None,
+           baseline: Gains | None = None) -> tuple[Gains, Prediction, Prediction | None]:
+    """The best candidate predicted no worse than ``baseline`` (which is kept if none is):
+    (gains, their prediction, the baseline's prediction)."""
+    course = course or Course(None)
+    pool = candidates(yaw, max_rudder)
+    if baseline is not None:
+        baseline = replace(baseline, loop_gain=baseline.yaw_kp * yaw.gain
+                           * baseline.max_turn_rate / max_rudder)
+        pool.append(baseline)
+    predictions = predict_all(pool, yaw, course, max_rudder=max_rudder, app_tick=app_tick)
+    reference = predictions[-1] if baseline is not None else None
+    best = min((i for i, p in enumerate(predictions)
+                if reference is None or p.no_worse_than(reference)),
+               key=lambda i: score(predictions[i]))
+    return pool[best], predictions[best], reference
