@@ -96,3 +96,19 @@ def test_the_tracks_lag_behind_the_heading_is_fitted():
     assert lag == pytest.approx(0.3, abs=0.06)
     assert fit_course_lag(Series(t[:5], heading[:5]), Series(t[:5], east[:5]),
                           Series(t[:5], north[:5]), 4.0) == 0.0
+
+
+def test_the_tunes_model_of_the_helm_matches_the_helm() -> None:
+    """``tuning`` may import only core, so it restates two things of the helm it simulates:
+    the derivative's taps and the turn-in onto the next line (for a 90° turn)."""
+    from mavhelm.tasks import pid, trackline
+    from mavhelm.tuning import gains
+
+    assert gains.FIR_TAPS == pid.FIR_TAPS
+    lead, speed = np.array([2.0, 3.0, 40.0]), 5.0
+    for following, current in ((20.0, 100.0), (100.0, 20.0)):
+        ours = gains._turn_in(lead, speed, following, current, trackline.TURN_LAG_S)
+        helm = [min(min(d * np.tan(np.pi / 4), d)
+                    + (trackline.TURN_LAG_S * speed if following > current else 0.0),
+                    0.5 * following, 0.5 * current) for d in lead]
+        assert ours == pytest.approx(helm)
