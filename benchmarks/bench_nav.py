@@ -54,6 +54,19 @@ the bit (Plaza1 tracks and covariances compared).
   a tick, most of them BLAS/LAPACK products whose rounding (fused multiply-adds) a float
   loop would not reproduce. Halving pNav's share of the tick needs the small-state EKF in
   plain floats — results equal to rounding, no longer to the bit — which this pass did not do.
+- The rest of the tick: the link frames MAVLink in one pass (``SkimmingParser.parse_buffer``,
+  pymavlink still decoding each frame read) and leaves ArduSub's depth messages undecoded on a
+  surface vehicle; the status snapshot is encoded only when it changed; a serial instrument
+  reads with one ``readv``; a task's starvation check is one pass. Interleaved with the code
+  of the session's start (per-app CPU, 150–300 s of the patrol each): the 1 Hz burst tick's
+  iMAVLink 723/793 → 413/355 µs; whole tick CPU p99 1452/1357 → 1152/1256 µs (load ≈ 1),
+  1766/1658 → 1503/1401 µs (load ≈ 2, a SITL beside it), 1761/1740 → 1377/1549 µs (after
+  every merge of the day, load ≈ 1). ``bench_nav`` itself, once each, nothing else running:
+  1.64 ms old, 1.61 ms new — a single 300 s run's p99 moves by ±15 % on this machine. The
+  slowest 1 % of ticks are now not the autopilot's 1 Hz burst but the ticks where a GPS fix
+  and a DVL reading reach pNav together (pNav 2.5× its median there). Not met: the tick needs
+  ~40 % less across every app (pNav ~300, pHelm ~150, iMAVLink ~130, the serial readers ~90,
+  iMAVLinkOut ~60 µs median), more than trimming gives.
 """
 
 from __future__ import annotations
