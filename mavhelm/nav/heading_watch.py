@@ -90,7 +90,11 @@ class HeadingWatch:
         self._since: float | None = None
 
     def position(self, t: float, nis: float) -> Decision | None:
-        """A range or fix whose χ² distance per degree of freedom was ``nis``."""
+        """A range or fix whose χ² distance per degree of freedom was ``nis``; not counted
+        until the vehicle has moved for ``STILL_TIME`` (see :meth:`course_defined`)."""
+        if not self.course_defined(t):
+            self._recent.clear()
+            return None
         self._recent.append(min(nis, 100.0))  # one wild outlier is not a trend
         if (len(self._recent) < DOUBT_WINDOW
                 or sum(self._recent) < DOUBT_NIS * DOUBT_WINDOW):
@@ -124,16 +128,22 @@ class HeadingWatch:
                             f"{t - since:.0f} s): not used while it does")
         return None
 
+    def course_defined(self, t: float) -> bool:
+        """Whether the vehicle has moved for ``STILL_TIME`` (as :meth:`motion` last heard):
+        only then does a wrong heading show in the position data. Starting from rest the
+        filter's speed lags the vehicle's (the box patrol's first seconds: 1-2.5 m behind
+        along the track, the heading within 1°), and the position data disagreeing then
+        tell of the speed, not the heading."""
+        return self._pending and self._since is not None and t - self._since >= STILL_TIME
+
     def motion(self, t: float, speed: float) -> Decision | None:
         """The bias's observability: said when the vehicle has been still, or moving, for
         ``STILL_TIME`` (nothing to say without a bias state)."""
-        if not self.estimates_bias:
-            return None
         moving = speed >= STILL_SPEED
         if self._since is None or moving != self._pending:
             self._pending, self._since = moving, t
             return None
-        if moving == self._moving or t - self._since < STILL_TIME:
+        if not self.estimates_bias or moving == self._moving or t - self._since < STILL_TIME:
             return None
         self._moving = moving
         if moving:
