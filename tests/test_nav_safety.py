@@ -20,7 +20,12 @@ from mavhelm.nav.filter_safety import (
     REINITIALISED,
     FilterSafety,
 )
-from mavhelm.nav.heading_watch import CONTRADICTION_TIME, DOUBT_WINDOW, HeadingWatch
+from mavhelm.nav.heading_watch import (
+    CONTRADICTION_TIME,
+    DOUBT_WINDOW,
+    STILL_TIME,
+    HeadingWatch,
+)
 from mavhelm.nav.lsq import Fix
 from mavhelm.nav.navigator import Navigator
 from mavhelm.nav.noise_match import MAX_SCALE, WINDOW, NoiseMatch
@@ -80,6 +85,7 @@ def test_the_heading_watch_reports_a_contradicting_heading_and_its_return() -> N
 
 def test_position_data_disagreeing_doubt_the_heading_once_per_episode() -> None:
     watch = HeadingWatch(estimates_bias=True)
+    watch.motion(-STILL_TIME, 1.0)  # under way: the motion defines a course
     assert all(watch.position(k, 0.3) is None for k in range(50))  # agreeing data
     said = [watch.position(100 + k, 5.0) for k in range(3 * DOUBT_WINDOW)]
     assert watch.doubts == 3 and sum(d is not None for d in said) == 1

@@ -6,11 +6,14 @@ motor), it sticks (a frozen AHRS). The EKF's heading-bias state follows a slow b
 shows in the data:
 
 - **The position data disagree** (the mean χ² distance of the last ``DOUBT_WINDOW`` beacon
-  ranges or fixes beyond ``DOUBT_NIS``): a wrong heading dead-reckons the vehicle away from
-  where the ranges put it. The heading is then doubted: its uncertainty (the bias state's,
-  when estimated) is raised to ``DOUBT_SIGMA``, so the position and body-velocity data
-  decide it again, and the bias is let wander (``WANDER_NOISE``) for ``BIAS_WANDER_TIME``.
-  A filter without a bias state is given one (``EKF.with_yaw_bias``) where the heading moves
+  ranges or fixes beyond ``DOUBT_NIS``, or of the last ``DOUBT_LONG_WINDOW`` beyond
+  ``DOUBT_LONG_NIS``): a wrong heading dead-reckons the vehicle away from where the ranges
+  put it. They are heard only once the vehicle has moved for ``STILL_TIME``: before, the
+  motion defines no course to hold a heading to, and a filter starting from rest trails the
+  vehicle along its track whatever the heading. The heading is then doubted: its
+  uncertainty (the bias state's, when estimated) is raised to ``DOUBT_SIGMA``, so the
+  position and body-velocity data decide it again, and the bias is let wander
+  (``WANDER_NOISE``) for ``BIAS_WANDER_TIME``. A filter without a bias state is given one (``EKF.with_yaw_bias``) where the heading moves
   the position (a sideslip constraint, a body speed): down-weighted readings of a wandering
   sensor, however far, still hold a share of the heading, and the heading's error grows
   with the bias (simulator, compass wandering to 180°: a few per cent, 6–12° at the end,
@@ -29,6 +32,7 @@ for the owner to publish.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from typing import Final
@@ -42,6 +46,13 @@ DOUBT_NIS: Final = 2.0
 agree with the estimate as their noise says (20 such in a row average over 2 one time in
 200), and a wrong heading grows it long before the gate refuses them. Only accepted readings
 count: a rejected one is an outlier (a GPS jump), the gate's business, not the heading's."""
+DOUBT_LONG_WINDOW: Final = 60
+"""... and a longer look back, for a heading that goes wrong slowly (a bias wandering by a
+degree in ten seconds): the mean over this many readings ..."""
+DOUBT_LONG_NIS: Final = 1.5
+"""... beyond this. Measured on the simulator's box patrol (ranges and GPS, 11 readings a
+second): clean, 0.98 at most over 400 s; the compass wandering, beyond 1.5 at a 6° error
+(104 s), 30 s before the short window saw it at 11°."""
 DOUBT_SIGMA: Final = math.radians(30.0)
 """rad: the heading 1-σ a doubt raises it to (enough to take a wandering bias back)."""
 WANDER_NOISE: Final = 2e-2
@@ -81,7 +92,7 @@ class HeadingWatch:
 
     def __init__(self, estimates_bias: bool) -> None:
         self.estimates_bias = estimates_bias
-        self._recent: deque[float] = deque(maxlen=DOUBT_WINDOW)
+        self._recent: deque[float] = deque(maxlen=DOUBT_LONG_WINDOW)
         self._last_doubt = -math.inf
         self.doubts = 0
         self._rejected_since: dict[str, float] = {}
@@ -95,9 +106,13 @@ class HeadingWatch:
         if not self.course_defined(t):
             self._recent.clear()
             return None
-        self._recent.append(min(nis, 100.0))  # one wild outlier is not a trend
-        if (len(self._recent) < DOUBT_WINDOW
-                or sum(self._recent) < DOUBT_NIS * DOUBT_WINDOW):
+        recent = self._recent
+        recent.append(min(nis, 100.0))  # one wild outlier is not a trend
+        short = len(recent) >= DOUBT_WINDOW and (
+            sum(itertools.islice(reversed(recent), DOUBT_WINDOW)) >= DOUBT_NIS * DOUBT_WINDOW)
+        long = (len(recent) == DOUBT_LONG_WINDOW
+                and sum(recent) >= DOUBT_LONG_NIS * DOUBT_LONG_WINDOW)
+        if not (short or long):
             return None
         self._recent.clear()
         self.doubts += 1
