@@ -13,11 +13,12 @@ shows in the data:
   vehicle along its track whatever the heading. The heading is then doubted: its
   uncertainty (the bias state's, when estimated) is raised to ``DOUBT_SIGMA``, so the
   position and body-velocity data decide it again, and the bias is let wander
-  (``WANDER_NOISE``) for ``BIAS_WANDER_TIME``. A filter without a bias state is given one (``EKF.with_yaw_bias``) where the heading moves
-  the position (a sideslip constraint, a body speed): down-weighted readings of a wandering
-  sensor, however far, still hold a share of the heading, and the heading's error grows
-  with the bias (simulator, compass wandering to 180°: a few per cent, 6–12° at the end,
-  0.64 m RMS against 0.35 m with the state). Where nothing tells a bias from a heading, the
+  (``WANDER_NOISE``) for ``BIAS_WANDER_TIME``. A filter without a bias state is given one
+  (``EKF.with_yaw_bias``) where the heading moves the position (a sideslip constraint, a
+  body speed): down-weighted readings of a wandering sensor, however far, still hold a
+  share of the heading, and the heading's error grows with the bias (simulator, compass
+  wandering to 180°: a few per cent, 6–12° at the end, 0.64 m RMS against 0.35 m with the
+  state). Where nothing tells a bias from a heading, the
   heading readings' σ is scaled up instead (``HEADING_DOUBT_SCALE`` a doubt) for
   ``WANDER_TIME``.
 - **The heading contradicts the motion** (its readings rejected for ``CONTRADICTION_TIME``):
