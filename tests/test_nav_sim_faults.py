@@ -86,6 +86,12 @@ def test_a_wandering_compass_gets_the_bias_state_the_mission_did_not_declare(rep
     assert learned and abs(float(learned.group(1))) > 90.0  # measured +177.07 (the fault 177.5)
 
 
+def test_a_clean_run_doubts_no_heading(report) -> None:
+    """The start from rest (the filter's speed trailing the boat's by 1-2.5 m at 5-10 s) is
+    not a heading fault: 'heading 3' at 6.9 s before the watch waited for a course."""
+    assert re.search(r"^decisions: .*\bheading 0,", report["none"], flags=re.M)
+
+
 def test_a_gps_with_2_m_noise_and_glitches_is_held_within_2_m(report) -> None:
     rms, worst = _score(report["gps_glitches"], "NAV")
     gps_rms, gps_worst = _score(report["gps_glitches"], "GPS")

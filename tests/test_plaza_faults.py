@@ -74,6 +74,8 @@ def test_the_navigator_says_what_it_decided_about_the_heading(report) -> None:
     assert "contradicts the motion" in report["heading_stuck"]
     assert "heading bias is doubted" in report["heading_wander"]
     assert "the heading bias is unobservable" in report["none"]  # the robot stands still first
+    # its 12 heading decisions are its six stops and starts (truth: still, then moving)
+    assert "doubted" not in report["none"] and "contradicts" not in report["none"]
 
 
 def test_a_beacon_off_its_survey_is_found_and_reported(report) -> None:
