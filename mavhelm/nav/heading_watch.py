@@ -18,9 +18,8 @@ shows in the data:
   body speed): down-weighted readings of a wandering sensor, however far, still hold a
   share of the heading, and the heading's error grows with the bias (simulator, compass
   wandering to 180°: a few per cent, 6–12° at the end, 0.64 m RMS against 0.35 m with the
-  state). Where nothing tells a bias from a heading, the
-  heading readings' σ is scaled up instead (``HEADING_DOUBT_SCALE`` a doubt) for
-  ``WANDER_TIME``.
+  state). Where nothing tells a bias from a heading, the heading readings' σ is scaled up
+  instead (``HEADING_DOUBT_SCALE`` a doubt) for ``WANDER_TIME``.
 - **The heading contradicts the motion** (its readings rejected for ``CONTRADICTION_TIME``):
   it is down-weighted to nothing (rejected) and reported, and reported again when it agrees.
 - **Unobservable**: the bias is seen only through motion (body velocity against position);
