@@ -108,7 +108,6 @@ def test_the_tunes_model_of_the_helm_matches_the_helm() -> None:
     lead, speed = np.array([2.0, 3.0, 40.0]), 5.0
     for following, current in ((20.0, 100.0), (100.0, 20.0)):
         ours = gains._turn_in(lead, speed, following, current, trackline.TURN_LAG_S)
-        helm = [min(min(d * np.tan(np.pi / 4), d)
-                    + (trackline.TURN_LAG_S * speed if following > current else 0.0),
-                    0.5 * following, 0.5 * current) for d in lead]
+        helm = [trackline.turn_in_distance(d, np.pi / 2, following, current, speed)
+                for d in lead]
         assert ours == pytest.approx(helm)

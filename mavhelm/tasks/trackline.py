@@ -185,6 +185,18 @@ MAX_ADVANCES_PER_TICK = 1000
 """A route moves on at most this many lines in one tick (bounds the work of any route)."""
 
 
+def turn_in_distance(lead: float, turn: float, following: float, current: float,
+                     speed: float) -> float:
+    """``RouteTask.turn_in`` for a turn of ``turn`` radians (at most π/2) from a line of
+    length ``current`` onto one of length ``following`` at ``speed``: Lead · tan(turn/2), at
+    most one Lead, plus the heading loop's lag run onto a longer line, at most half of either
+    line. (The tune's model of the helm flies the same.)"""
+    ahead = min(lead * math.tan(turn / 2.0), lead)
+    if following > current:
+        ahead += TURN_LAG_S * speed * math.sin(turn)
+    return min(ahead, 0.5 * following, 0.5 * current)
+
+
 class LineFollower:
     """Carrot-and-donkey steering on one segment, with the bounded XTE integral (see above)."""
 
@@ -374,13 +386,9 @@ class RouteTask(SteeringTask):
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
-        lead = self.current_lead()
-        turn = math.radians(min(turn, 90.0))
-        ahead = min(lead * math.tan(turn / 2.0), lead)
-        following = distance(p2, after)
-        if following > follower.length:
-            ahead += TURN_LAG_S * (self.speed_source().speed or 0.0) * math.sin(turn)
-        return min(ahead, 0.5 * following, 0.5 * follower.length)
+        return turn_in_distance(self.current_lead(), math.radians(min(turn, 90.0)),
+                                distance(p2, after), follower.length,
+                                self.speed_source().speed or 0.0)
 
     # ---- driving -------------------------------------------------------------------------
 
