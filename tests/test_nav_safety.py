@@ -147,7 +147,8 @@ def _log(seconds: int = 1200) -> list[Message]:
 
 def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
-    assert set(FAULTS) == {"heading_wander", "heading_jumps", "heading_stuck", "ranges_gap",
+    assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_jumps", "heading_stuck",
+                           "ranges_gap",
                            "beacon_moved", "range_outliers", "gps_glitches"}
     for name in FAULTS:
         assert applies(name, LAYOUT)
@@ -170,6 +171,26 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     with pytest.raises(ValueError, match="unknown fault"):
         with_fault("nothing", log, LAYOUT)
     assert not applies("ranges_gap", Layout(("C",), (), ("G",), ()))
+
+
+def test_a_drifting_heading_swings_180_within_five_minutes_and_its_yaw_rate_with_it() -> None:
+    """``heading_drift``: an odometry-integrated heading. Its error's widest swing over any
+    five minutes is 180°, and the same instrument's yaw rate (yaw = −heading, rad/s) carries
+    the drift's rate, so heading and rate still agree with each other; a yaw rate from
+    another instrument is left alone."""
+    log = [m for k in range(1200) for m in (
+        Message("C_HEADING", 90.0, float(k), "log"), Message("C_YAW_VEL", 0.0, float(k), "log"),
+        Message("D_YAW_VEL", 0.0, float(k), "log"))]
+    layout = Layout(("C",), (), (), (), ("C", "D"))
+    drifted = with_fault("heading_drift", log, layout, seed=3)
+    bias = np.unwrap(np.radians([m.double - 90.0 for m in drifted if m.name == "C_HEADING"]))
+    bias = np.degrees(bias)
+    swings = np.ptp(np.lib.stride_tricks.sliding_window_view(bias, 300), axis=1)
+    assert swings.max() == pytest.approx(180.0, abs=1.0)
+    assert np.ptp(bias) > 180.0  # over the whole run it goes further than five minutes' swing
+    rate = np.array([m.double for m in drifted if m.name == "C_YAW_VEL"])
+    np.testing.assert_allclose(rate, -np.radians(np.gradient(bias)), atol=1e-3)
+    assert all(m.double == 0.0 for m in drifted if m.name == "D_YAW_VEL")
 
 
 NAV_LSQ = """

@@ -7,7 +7,10 @@ those real vehicles meet:
 
 ==================  ==========================================================================
 ``heading_wander``  the orientation sensor's bias wanders, a smooth random walk reaching 180°
-                    within minutes (an odometry-integrated heading, a compass by a moving load)
+                    over the run (a compass by a moving load)
+``heading_drift``   an odometry-integrated heading: its error drifts 180° within five minutes
+                    (a random walk of its rate) and the same instrument's yaw rate carries that
+                    rate
 ``heading_jumps``   the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
                     compass near a motor)
 ``heading_stuck``   the heading holds one value for five minutes (a frozen AHRS)
@@ -48,6 +51,7 @@ class Layout:
     ranging: tuple[str, ...]
     position: tuple[str, ...]
     beacons: tuple[Beacon, ...]
+    body_velocity: tuple[str, ...] = ()
 
 
 def layout_of(block: Block) -> Layout:
@@ -58,7 +62,7 @@ def layout_of(block: Block) -> Layout:
     def sources(*types: str) -> tuple[str, ...]:
         return tuple(dict.fromkeys(s.source for s in specs if s.type in types))
     return Layout(sources("ORIENTATION"), sources("RANGE", "LBL"), sources("XY"),
-                  tuple(settings[BEACON.attribute]))
+                  tuple(settings[BEACON.attribute]), sources("BODY_VEL"))
 
 
 FaultMaker = Callable[[list[Message], Layout, np.random.Generator], list[Message]]
@@ -79,15 +83,45 @@ def _turn(m: Message, bias_deg: float) -> Message:
     return m._replace(value=math.remainder(m.double - math.radians(bias_deg), 2 * math.pi))
 
 
+def _bias_walk(grid: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A smooth random walk on ``grid`` (1 s apart), in degrees: its rate is itself a random
+    walk, clipped to ±2 (unscaled) degrees a second."""
+    rate = np.cumsum(rng.normal(0.0, 0.05, grid.size))
+    return np.cumsum(np.clip(rate, -2.0, 2.0))
+
+
 def heading_wander(messages: list[Message], layout: Layout,
                    rng: np.random.Generator) -> list[Message]:
     t0, t1 = _span(messages)
     grid = np.arange(t0, t1 + 1.0, 1.0)
-    rate = np.cumsum(rng.normal(0.0, 0.05, grid.size))  # deg/s, itself a random walk
-    walk = np.cumsum(np.clip(rate, -2.0, 2.0))
+    walk = _bias_walk(grid, rng)
     walk *= 180.0 / max(float(np.max(np.abs(walk))), 1e-9)
     return [_turn(m, float(np.interp(m.time, grid, walk)))
             if _is(m, layout.orientation, "HEADING", "YAW") else m for m in messages]
+
+
+DRIFT_WINDOW = 300
+"""s: ``heading_drift`` moves 180° within this long (its widest swing over any such window)."""
+
+
+def heading_drift(messages: list[Message], layout: Layout,
+                  rng: np.random.Generator) -> list[Message]:
+    t0, t1 = _span(messages)
+    grid = np.arange(t0, t1 + 1.0, 1.0)
+    walk = _bias_walk(grid, rng)
+    window = min(DRIFT_WINDOW, grid.size)
+    swing = float(np.ptp(np.lib.stride_tricks.sliding_window_view(walk, window), axis=1).max())
+    walk *= 180.0 / max(swing, 1e-9)
+    rate = np.radians(np.gradient(walk, grid)) if grid.size > 1 else np.zeros(grid.size)
+    both = tuple(set(layout.orientation) & set(layout.body_velocity))
+    out = []
+    for m in messages:
+        if _is(m, layout.orientation, "HEADING", "YAW"):
+            m = _turn(m, float(np.interp(m.time, grid, walk)))
+        elif _is(m, both, "YAW_VEL"):  # yaw = −heading: a clockwise drift is a negative rate
+            m = m._replace(value=m.double - float(np.interp(m.time, grid, rate)))
+        out.append(m)
+    return out
 
 
 def heading_jumps(messages: list[Message], layout: Layout,
@@ -193,6 +227,7 @@ def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 FAULTS: dict[str, FaultMaker] = {
     "heading_wander": heading_wander,
+    "heading_drift": heading_drift,
     "heading_jumps": heading_jumps,
     "heading_stuck": heading_stuck,
     "ranges_gap": ranges_gap,
