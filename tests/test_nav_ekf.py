@@ -91,16 +91,52 @@ def circle_run(seconds: float = 300.0, *, offset: float = 0.0, yaw_bias: float =
 def test_state_layout_and_shapes() -> None:
     ekf = EKF(0.0, 1.0, 2.0, 0.5, beacons=BEACONS[:2],
               config=EKFConfig(estimate_yaw_bias=True))
-    # X Y H Ẋ Ẏ Ḣ, heading bias, range scale, two offsets
-    assert ekf.dim == 10
-    assert ekf.x.shape == (10, 1) and ekf.P.shape == (10, 10)
-    assert (ekf.i_bias, ekf.i_scale) == (6, 7)
-    assert [ekf.offset_index(b) for b in ("A", "B")] == [8, 9]
+    # X Y H Ẋ Ẏ Ḣ, heading bias and its drift rate, range scale, two offsets
+    assert ekf.dim == 11
+    assert ekf.x.shape == (11, 1) and ekf.P.shape == (11, 11)
+    assert (ekf.i_bias, ekf.i_drift, ekf.i_scale) == (6, 7, 8)
+    assert [ekf.offset_index(b) for b in ("A", "B")] == [9, 10]
+    assert ekf.state_names() == ["X", "Y", "H", "X_VEL", "Y_VEL", "H_VEL", "YAW_BIAS",
+                                 "YAW_DRIFT", "RANGE_SCALE", "OFFSET_A", "OFFSET_B"]
     ekf.predict(0.5)
-    assert ekf.F.shape == ekf.Q.shape == (10, 10)
+    assert ekf.F.shape == ekf.Q.shape == (11, 11)
     assert ekf.F[I_X, I_VX] == ekf.F[I_Y, I_VY] == ekf.F[I_H, I_VH] == 0.5
+    assert ekf.F[6, 7] == 0.5  # the bias moves at its drift rate
+    plain = EKF(0.0, 1.0, 2.0, 0.5, beacons=BEACONS[:2],
+                config=EKFConfig(estimate_yaw_bias=True, estimate_yaw_drift=False))
+    assert plain.dim == 10 and plain.i_drift is None and plain.i_scale == 7
     bare = EKF(0.0, 0, 0)  # no beacons, no bias asked for
     assert bare.dim == 6 and bare.i_bias is None and bare.i_scale is None
+
+
+def test_a_drifting_bias_is_carried_on_at_its_learned_rate() -> None:
+    """EKF_YAW_DRIFT: the bias and its rate are a constant-velocity pair. A compass whose
+    bias drifts at 0.5°/s while positions pin the heading teaches the filter that rate; when
+    the positions stop, the bias goes on at it (a random-walk bias alone would stay where it
+    was), so the heading taken out of the compass stays right."""
+    rate = math.radians(0.5)
+
+    def run(drift: bool) -> tuple[EKF, float]:
+        ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_bias=True,
+                                                  estimate_yaw_drift=drift,
+                                                  velocity_follows_heading=True))
+        t = 0.0
+        for k in range(1, 1201):  # north at 1 m/s (yaw 0), 10 Hz
+            t = k * 0.1
+            ekf.advance(t)
+            observations: list = [Yaw(t, rate * t, sigma=math.radians(0.5)),
+                                  BodyVelocity(t, 1.0, 0.0, None, 0.05, 0.05)]
+            if t <= 90.0:  # positions for 90 s, then 30 s without
+                observations.append(Position(t, 0.0, t, sigma=0.3))
+            ekf.update(observations)
+        return ekf, t
+    with_rate, t = run(True)
+    assert with_rate.x[with_rate.i_drift, 0] == pytest.approx(rate, rel=0.1)
+    assert with_rate.x[I_H, 0] == pytest.approx(0.0, abs=math.radians(2.0))
+    without, _ = run(False)
+    assert abs(without.x[I_H, 0]) > math.radians(5.0)  # 30 s × 0.5°/s taken as a turn
+    twin = EKF(0.0, 0.0, 0.0, config=EKFConfig()).with_yaw_bias()  # added, not declared:
+    assert twin.state_names()[6:] == ["YAW_BIAS"]  # a random walk alone (a compass's)
 
 
 def test_process_noise_is_filterpys_continuous_white_noise_scaled_by_dynamics() -> None:

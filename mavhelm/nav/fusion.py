@@ -650,22 +650,7 @@ class Fusion:
                          f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
 
     def state_names(self) -> list[str]:
-        ekf = self.ekf
-        if ekf is None:
-            return []
-        names = ["X", "Y", "H", "X_VEL", "Y_VEL", "H_VEL"]
-        extra: dict[int, str] = {}
-        if ekf.i_z is not None and ekf.i_vz is not None:
-            extra[ekf.i_z], extra[ekf.i_vz] = "Z", "Z_VEL"
-        if ekf.i_bias is not None:
-            extra[ekf.i_bias] = "YAW_BIAS"
-        if ekf.i_tide is not None:
-            extra[ekf.i_tide] = "TIDE"
-        if ekf.i_scale is not None:
-            extra[ekf.i_scale] = "RANGE_SCALE"
-        for name in ekf.beacons:
-            extra[ekf.offset_index(name)] = f"OFFSET_{name}"
-        return names + [extra[i] for i in sorted(extra)]
+        return [] if self.ekf is None else self.ekf.state_names()
 
     def _xlog(self) -> None:
         ekf = self.ekf

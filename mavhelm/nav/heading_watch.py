@@ -57,16 +57,15 @@ a cure: a bias that sits at 4° for a minute (seeds 3, 4) leaves the mean NIS wh
 run has it while the position is 0.6-1 m off; both windows see it only at 9-14° (79 s)."""
 DOUBT_SIGMA: Final = math.radians(30.0)
 """rad: the heading 1-σ a doubt raises it to (enough to take a wandering bias back)."""
-WANDER_NOISE: Final = 0.1
-"""rad/√s: the bias random walk after a doubt (a 1-σ of 6° in a second, 44° in a minute): a
-bias that wandered once may wander on, and as fast as an odometry-integrated heading does.
-Measured on Plaza1 (RMS m, fault seeds 1, 2, 3): the heading wandering to 180° over the run,
-17.3 before the watch, 1.96 with doubts and the steady 1e-3 alone, 0.68/0.68/0.75 with 2e-2,
-0.59/0.65/0.65 with this; drifting 180° within five minutes (``heading_drift``),
-15.1/1.64/2.35 with 2e-2 (the first lost the heading and was re-initialised 7 times),
-2.47/1.49/2.27 with this — what is left is a 90 s stretch without ranges while the heading
-drifts 0.6°/s, which nothing observes (22 m at its end); 5e-2 scored within 0.05 m of this,
-0.2 the same. The recording without a fault has no doubt and is not touched (0.47 m)."""
+WANDER_NOISE: Final = 2e-2
+"""rad/√s: the bias random walk after a doubt (1.1° in a second, 10° in a minute and a half):
+a bias that wandered once may wander on. Measured on Plaza1 with the bias wandering to 180°
+(a random walk of its rate): 17.3 m RMS before the watch, 1.96 m with doubts and the steady
+1e-3 alone, 0.84 m with this; the recording without the fault stays at 0.47 m. 0.1 took a
+heading drifting 180° within five minutes on a mission without the drift-rate state from 15.1
+to 2.5 m, but a compass's bias added under way wanders so for half an hour, and a 20 s GPS
+gap across a corner then went 3.1 → 6.5 m: the drift rate (``EKF_YAW_DRIFT``) is what an
+integrated heading needs (0.55 m there, with no doubt at all)."""
 WANDER_TIME: Final = 300.0
 """s: how long after the last doubt a heading without a bias state is down-weighted."""
 BIAS_WANDER_TIME: Final = 1800.0

@@ -182,8 +182,10 @@ class ReplayResult:
                 lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
             final = self.final
             if final is not None:
-                learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg",
-                           f"range scale {final.range_scale:+.4f}"]
+                learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
+                if final.yaw_drift:
+                    learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
+                learned.append(f"range scale {final.range_scale:+.4f}")
                 learned += [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
                 lines.append("learned: " + ", ".join(learned))
         if self.failure:

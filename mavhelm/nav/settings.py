@@ -67,6 +67,11 @@ EKF_TIME_SIGMA = Param("EKF_TIME_SIGMA", Number(0.0, 2.0), 0.1, "s", "RMS of how
 EKF_YAW_BIAS = Param("EKF_YAW_BIAS", Boolean(), False, "", "estimate the orientation sensors' "
                      "heading bias (needs a BODY_VEL and a position sensor, spec 2.2.10)",
                      attr="ekf_yaw_bias", aliases=(Alias("EKF_ESTIMATE_YAW_BIAS"),))
+EKF_YAW_DRIFT = Param("EKF_YAW_DRIFT", Boolean(), True, "", "with the heading-bias state, "
+                      "estimate the rate the bias drifts at too: an odometry- or "
+                      "gyro-integrated heading drifts at a rate that changes slowly, and "
+                      "through a stretch without position data only that rate carries the "
+                      "heading (false: the bias is a random walk alone)", attr="ekf_yaw_drift")
 _TIDE_IN_METRES = ("in the original pNav EKF_TIDE is the start tide in metres, which mavhelm "
                    "does not take; here it says whether the tide is estimated")
 EKF_TIDE = Param("EKF_TIDE", Boolean(number_reason=_TIDE_IN_METRES), False, "",
