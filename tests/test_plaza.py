@@ -18,6 +18,9 @@ from types import ModuleType
 
 import pytest
 
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav.replay import replay
+
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[1]
@@ -102,12 +105,37 @@ def test_heading_drifting_half_a_degree_a_minute_is_followed(plaza) -> None:
     print("\nPlaza1, heading drifting 0.5 deg/min:\n  " + result.summary())
     acc = result.accuracy
     assert result.replay.failure is None
-    # measured: RMS 0.50 m, p95 0.94 m. The readings run clockwise of the truth (a negative
-    # yaw bias): 16.1 deg drifted by the end, less the +1.3 deg the robot's own heading has
-    # (learned without drift), is -14.8; the random-walk state trails a steady drift, and
-    # ends at -13.6
+    # The readings run clockwise of the truth (a negative yaw bias): 16.1 deg drifted by the
+    # end, less the +1.3 deg the robot's own heading has (learned without drift), is -14.8;
+    # the drift-rate state (EKF_YAW_DRIFT) follows it (a random-walk bias alone trailed it,
+    # ending at -13.6)
     assert acc.rms <= 0.65 and acc.p95 <= 1.25
     assert -17.0 < math.degrees(result.replay.final.yaw_bias) < -12.5
+    clean = run.run(*log).replay.final  # the robot's own heading drifts too (~-1 deg/min)
+    drift = 60 * math.degrees(result.replay.final.yaw_drift - clean.yaw_drift)
+    assert drift == pytest.approx(-0.5, abs=0.25)
+
+
+def test_an_odometer_reading_long_is_learned_with_the_speed_scale(converted, plaza) -> None:
+    """EKF_SPEED_SCALE: the odometry 5 % long (a worn wheel's size) is a scale the filter
+    learns against the ranges; without the state the filter trusts the speeds as declared
+    and is confidently wrong. Off by default: on the clean recording it costs 0.48 → 0.51 m
+    and a beacon 5 m off 0.76 → 1.09 m (the scale trades against the beacon's offset)."""
+    mission, _alog = converted
+    _run, (block, messages) = plaza
+    text = mission.read_text().replace("EKF_YAW_BIAS = true",
+                                       "EKF_YAW_BIAS = true\n    EKF_SPEED_SCALE = true")
+    scaled_block = parse_mission(text, str(mission)).process("pNav")
+    assert scaled_block is not None
+    long = [m._replace(value=1.05 * m.double) if m.name == "ODOM_VX_BODY" else m
+            for m in messages]
+    plain, scaled = replay(block, long), replay(scaled_block, long)
+    print(f"\nPlaza1, odometry 5 % long: without the scale {plain.accuracy()}, NEES "
+          f"{plain.consistency().mean:.1f}; with it {scaled.accuracy()}, NEES "
+          f"{scaled.consistency().mean:.1f}, learned {scaled.final.speed_scale:+.3f}")
+    assert scaled.final.speed_scale == pytest.approx(0.05, abs=0.015)
+    assert scaled.accuracy().rms <= 0.6 and scaled.consistency().mean < 3.0
+    assert plain.consistency().mean > 2 * scaled.consistency().mean  # over-confident without
 
 
 def test_no_start_at_all_boots_from_the_lsq(plaza) -> None:

@@ -115,6 +115,7 @@ from mavhelm.nav.settings import (
     EKF_SIGMA_HEADING,
     EKF_SIGMA_XY,
     EKF_SIGMA_Z,
+    EKF_SPEED_SCALE,
     EKF_TIDE,
     EKF_TIME_SIGMA,
     EKF_XY_DYNAMICS,
@@ -236,6 +237,10 @@ class EKFConfig:
       1e-3: 1.43/0.86/1.56, 3e-5: 2.29/1.02/2.20); wandering 180° over the run
       0.59/0.65/0.65 → 0.49/0.50/0.50; the recording without a fault 0.47 → 0.48. Only on
       a mobile vehicle.
+    - ``estimate_speed_scale`` (EKF_SPEED_SCALE): add one scale factor of the body-velocity
+      sensors' forward and starboard speeds (measured = (1 + k) × true), shared by them: a
+      wheel odometer's wheel size, a DVL's sound speed. ``sigma_speed_scale`` its initial
+      1-σ, ``speed_scale_noise`` its random walk (1/√s). Seen only against position data.
     - ``estimate_range_scale`` (EKF_RANGE_SCALE): add one range scale factor shared by every
       beacon (ranges = (1 + s) × distance + offset): a wrong sound speed for acoustic LBL, a
       clock-rate error for radio ranging. ``sigma_range_scale`` its initial 1-σ,
@@ -280,6 +285,9 @@ class EKFConfig:
     estimate_yaw_drift: bool = setting(EKF_YAW_DRIFT)
     sigma_yaw_drift: float = math.radians(1.0)
     yaw_drift_noise: float = 1e-4
+    estimate_speed_scale: bool = setting(EKF_SPEED_SCALE)
+    sigma_speed_scale: float = 0.1
+    speed_scale_noise: float = 1e-5
     estimate_range_scale: bool = setting(EKF_RANGE_SCALE)
     sigma_range_scale: float = 0.1
     range_scale_noise: float = 1e-5
@@ -303,12 +311,12 @@ class EKFConfig:
     def __post_init__(self) -> None:
         check_config(self)
         for name in ("sigma_velocity", "sigma_yaw_rate", "sigma_yaw_bias", "sigma_yaw_drift",
-                     "sigma_range_scale",
+                     "sigma_speed_scale", "sigma_range_scale",
                      "sigma_beacon_offset", "max_yaw_rate", "sigma_tide"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
-        for name in ("yaw_bias_noise", "yaw_drift_noise", "range_scale_noise",
+        for name in ("yaw_bias_noise", "yaw_drift_noise", "speed_scale_noise", "range_scale_noise",
                      "beacon_offset_noise", "tide_noise"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
@@ -441,6 +449,7 @@ class Estimate:
     yaw_drift: float
     range_scale: float
     offsets: dict[str, float]
+    speed_scale: float = 0.0
     z: float = 0.0
     z_vel: float = 0.0
     tide: float = 0.0
@@ -548,6 +557,8 @@ class EKF:
         n += 1 if drifts else 0
         self.i_tide: int | None = n if cfg.estimate_tide else None
         n += 1 if cfg.estimate_tide else 0
+        self.i_speed: int | None = n if cfg.estimate_speed_scale else None
+        n += 1 if cfg.estimate_speed_scale else 0
         self.i_scale: int | None = n if cfg.estimate_range_scale and self.beacons else None
         first_offset = n + (1 if self.i_scale is not None else 0)
         self._offset_index = {name: first_offset + k for k, name in enumerate(self.beacons)}
@@ -626,7 +637,8 @@ class EKF:
             pairs.append((self.i_bias, self.i_drift, cfg.yaw_drift_noise**2))
         walks = [(i, noise**2) for i, noise in (
             (self.i_bias, cfg.yaw_bias_noise), (self.i_tide, cfg.tide_noise),
-            (self.i_scale, cfg.range_scale_noise)) if i is not None]
+            (self.i_speed, cfg.speed_scale_noise), (self.i_scale, cfg.range_scale_noise))
+            if i is not None]
         walks += [(i, cfg.offset_noise**2) for i in self._offset_index.values()]
         pos, vel, q = (np.array(col) for col in zip(*pairs, strict=True))
         walk = np.array([i for i, _ in walks], dtype=int)
@@ -656,6 +668,8 @@ class EKF:
             var[self.i_drift] = cfg.sigma_yaw_drift**2
         if self.i_tide is not None:
             var[self.i_tide] = cfg.sigma_tide**2
+        if self.i_speed is not None:
+            var[self.i_speed] = cfg.sigma_speed_scale**2
         if self.i_scale is not None:
             var[self.i_scale] = cfg.sigma_range_scale**2
         for name, i in self._offset_index.items():
@@ -960,7 +974,7 @@ class EKF:
                 jacobian.append((self.i_z, k * dz / d))
             return [(obs.z, k * d + x[i], jacobian, obs.sigma**2, False)]
         if isinstance(obs, BodyVelocity):
-            return self._body_velocity_rows(obs, x)
+            return self._body_velocity_rows(obs, x, self.i_speed)
         if isinstance(obs, Yaw):
             jacobian = [(I_H, 1.0)]
             predicted = x[I_H]
@@ -989,24 +1003,33 @@ class EKF:
         raise TypeError(f"not an observation: {obs!r}")
 
     @staticmethod
-    def _body_velocity_rows(obs: BodyVelocity, x: list[float]) -> list[_Row]:
+    def _body_velocity_rows(obs: BodyVelocity, x: list[float], i_speed: int | None = None
+                            ) -> list[_Row]:
         """Forward speed, starboard speed and yaw rate, those the sensor gives (ω × r at the
-        sensor's lever arm)."""
+        sensor's lever arm); the speeds times (1 + the speed scale) when it is a state
+        (``i_speed``)."""
         s, c = math.sin(x[I_H]), math.cos(x[I_H])
         vx, vy = x[I_VX], x[I_VY]
         u = -vx * s + vy * c
         v = vx * c + vy * s
         lx, ly, _lz = obs.lever
         w = x[I_VH]
-        parts: list[tuple[float | None, float, tuple[float, ...], float]] = [
-            (obs.forward, u + w * lx, (-s, c, -v, lx), obs.sigma_forward),
-            (obs.starboard, v - w * ly, (c, s, u, -ly), obs.sigma_starboard),
-            (obs.yaw_rate, w, (0.0, 0.0, 0.0, 1.0), obs.sigma_yaw_rate)]
-        rows: list[_Row] = [
-            (measured, predicted,
-             [(I_VX, d_vx), (I_VY, d_vy), (I_H, d_h), (I_VH, d_vh)], sigma**2, False)
-            for measured, predicted, (d_vx, d_vy, d_h, d_vh), sigma in parts
-            if measured is not None]
+        g = 1.0 + x[i_speed] if i_speed is not None else 1.0
+        forward, starboard = u + w * lx, v - w * ly
+        parts: list[tuple[float | None, float, tuple[float, ...], float, float]] = [
+            (obs.forward, g * forward, (-g * s, g * c, -g * v, g * lx), obs.sigma_forward,
+             forward),
+            (obs.starboard, g * starboard, (g * c, g * s, g * u, -g * ly),
+             obs.sigma_starboard, starboard),
+            (obs.yaw_rate, w, (0.0, 0.0, 0.0, 1.0), obs.sigma_yaw_rate, 0.0)]
+        rows: list[_Row] = []
+        for measured, predicted, (d_vx, d_vy, d_h, d_vh), sigma, d_g in parts:
+            if measured is None:
+                continue
+            jacobian = [(I_VX, d_vx), (I_VY, d_vy), (I_H, d_h), (I_VH, d_vh)]
+            if i_speed is not None and d_g:
+                jacobian.append((i_speed, d_g))
+            rows.append((measured, predicted, jacobian, sigma**2, False))
         if not rows:
             raise ValueError("a BodyVelocity observation with no part")
         return rows
@@ -1081,7 +1104,7 @@ class EKF:
         names = {I_X: "X", I_Y: "Y", I_H: "H", I_VX: "X_VEL", I_VY: "Y_VEL", I_VH: "H_VEL"}
         for i, name in ((self.i_z, "Z"), (self.i_vz, "Z_VEL"), (self.i_bias, "YAW_BIAS"),
                         (self.i_drift, "YAW_DRIFT"), (self.i_tide, "TIDE"),
-                        (self.i_scale, "RANGE_SCALE")):
+                        (self.i_speed, "SPEED_SCALE"), (self.i_scale, "RANGE_SCALE")):
             if i is not None:
                 names[i] = name
         for beacon, i in self._offset_index.items():
@@ -1220,6 +1243,7 @@ class EKF:
             yaw_bias=x[self.i_bias] if self.i_bias is not None else 0.0,
             yaw_drift=x[self.i_drift] if self.i_drift is not None else 0.0,
             range_scale=x[self.i_scale] if self.i_scale is not None else 0.0,
+            speed_scale=x[self.i_speed] if self.i_speed is not None else 0.0,
             offsets={name: x[i] for name, i in self._offset_index.items()},
             z=x[self.i_z] if self.i_z is not None else 0.0,
             z_vel=x[self.i_vz] if self.i_vz is not None else 0.0,

@@ -185,6 +185,8 @@ class ReplayResult:
                 learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
                 if final.yaw_drift:
                     learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
+                if final.speed_scale:
+                    learned.append(f"speed scale {final.speed_scale:+.4f}")
                 learned.append(f"range scale {final.range_scale:+.4f}")
                 learned += [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
                 lines.append("learned: " + ", ".join(learned))

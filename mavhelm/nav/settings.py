@@ -72,6 +72,10 @@ EKF_YAW_DRIFT = Param("EKF_YAW_DRIFT", Boolean(), True, "", "with the heading-bi
                       "gyro-integrated heading drifts at a rate that changes slowly, and "
                       "through a stretch without position data only that rate carries the "
                       "heading (false: the bias is a random walk alone)", attr="ekf_yaw_drift")
+EKF_SPEED_SCALE = Param("EKF_SPEED_SCALE", Boolean(), False, "", "learn a scale error of the "
+                        "body-velocity sensors' speeds, shared by them (a wheel odometer's "
+                        "wheel size, a DVL's sound speed); needs a position sensor",
+                        attr="ekf_speed_scale")
 _TIDE_IN_METRES = ("in the original pNav EKF_TIDE is the start tide in metres, which mavhelm "
                    "does not take; here it says whether the tide is estimated")
 EKF_TIDE = Param("EKF_TIDE", Boolean(number_reason=_TIDE_IN_METRES), False, "",
