@@ -16,7 +16,9 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
+import scipy.io
 
 from mavhelm.core.mission import parse_mission
 from mavhelm.nav.replay import replay
@@ -148,3 +150,27 @@ def test_no_start_at_all_boots_from_the_lsq(plaza) -> None:
     # measured: RMS 0.67 m, p95 1.46 m (the boot fix is 4.9 m off: the ranges are 7 % long
     # and the vehicle stands still for 48 s, so the scale is learned only once it moves)
     assert acc.rms <= 0.85 and acc.p95 <= 1.8
+
+
+def test_a_recording_with_gaps_and_wider_tables_converts(tmp_path) -> None:
+    """Another recording of the kind (held out here) may mark a missing sample with NaN or
+    list its beacons with a height: the converter skips the one and reads the first three
+    columns of the other, rather than failing."""
+    t = np.arange(0.0, 10.0, 0.2)
+    gt = np.column_stack([t, t, 0 * t, 0 * t])
+    gt[3] = np.nan
+    dr = np.column_stack([t, 0.2 * np.ones_like(t), 0 * t])
+    drp = np.column_stack([t, t, 0 * t, 0 * t])
+    td = np.array([[1.0, 2, 7, 10.0], [2.0, 2, 7, np.nan], [3.0, 2, 8, 12.0]])
+    tl = np.array([[7, 0.0, 10.0, 1.5], [8, 5.0, -10.0, 1.5]])
+    mat = tmp_path / "other.mat"
+    scipy.io.savemat(mat, {"GT": gt, "DR": dr, "DRp": drp, "TD": td, "TL": tl})
+    convert = _module("convert")
+    alog, mission = tmp_path / "other.alog", tmp_path / "other.moos"
+    convert.convert(mat, alog, mission)
+    text = mission.read_text()
+    assert "BEACON = 7 @ 0.000,10.000,0" in text and "BEACON = 8 @ 5.000,-10.000,0" in text
+    names = [line.split()[1] for line in alog.read_text().splitlines()
+             if line and not line.startswith("%")]
+    assert names.count("TRUTH_X") == len(t) - 1
+    assert names.count("UWB_RANGE_7") == 1 and names.count("UWB_RANGE_8") == 1

@@ -47,9 +47,16 @@ START_ERROR = (3.0, 4.0)
 TEMPLATE = Path(__file__).with_name("plaza.moos.in")
 
 
+def _finite_rows(array: np.ndarray) -> np.ndarray:
+    """The rows of a data set's array whose every entry is a number (a recording may mark a
+    missing sample with NaN)."""
+    a = np.asarray(array, dtype=float)
+    return a[np.isfinite(a).all(axis=1)]
+
+
 def messages(mat: dict[str, np.ndarray]) -> list[Message]:
     """Every variable of the log, time-ordered (stable, so a time's rows keep their order)."""
-    gt, dr, drp, td = (np.asarray(mat[k], dtype=float) for k in ("GT", "DR", "DRp", "TD"))
+    gt, dr, drp, td = (_finite_rows(mat[k]) for k in ("GT", "DR", "DRp", "TD"))
     out: list[Message] = []
     for (t_before, _d, _a), (t, dist, dyaw) in zip(dr, dr[1:], strict=False):
         dt = float(t - t_before)
@@ -72,8 +79,8 @@ def messages(mat: dict[str, np.ndarray]) -> list[Message]:
 
 def mission_text(mat: dict[str, np.ndarray]) -> str:
     """The pNav mission for this recording: its beacons and a start known to 5 m."""
-    gt, tl = np.asarray(mat["GT"], dtype=float), np.asarray(mat["TL"], dtype=float)
-    beacons = "\n".join(f"    BEACON = {int(i)} @ {x:.3f},{y:.3f},0" for i, x, y in tl)
+    gt, tl = _finite_rows(mat["GT"]), _finite_rows(mat["TL"])
+    beacons = "\n".join(f"    BEACON = {int(i)} @ {x:.3f},{y:.3f},0" for i, x, y in tl[:, :3])
     return TEMPLATE.read_text().format(beacons=beacons, x=gt[0, 1] + START_ERROR[0],
                                        y=gt[0, 2] + START_ERROR[1])
 
