@@ -72,4 +72,4 @@ def test_a_gps_gap_across_a_corner_stays_within_what_the_turn_allows() -> None:
     # 20 s without GPS from 5 s before a 10 s, 90° turn: dead reckoning on the compass
     _, gap_errors = _run(gap=(255.0, 275.0))
     print(f"\nGPS gap of 20 s across a corner: worst error {max(gap_errors):.1f} m")
-    assert max(gap_errors) <= 5.0  # measured 3.1 m (19.3 m when the speed was not held)
+    assert max(gap_errors) <= 5.0  # measured 3.7 m (19.3 m when the speed was not held)

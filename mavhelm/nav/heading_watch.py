@@ -64,7 +64,7 @@ a bias that wandered once may wander on. Measured on Plaza1 with the bias wander
 1e-3 alone, 0.84 m with this; the recording without the fault stays at 0.47 m. 0.1 took a
 heading drifting 180° within five minutes on a mission without the drift-rate state from 15.1
 to 2.5 m, but a compass's bias added under way wanders so for half an hour, and a 20 s GPS
-gap across a corner then went 3.1 → 6.5 m: the drift rate (``EKF_YAW_DRIFT``) is what an
+gap across a corner then went 3.7 → 6.5 m: the drift rate (``EKF_YAW_DRIFT``) is what an
 integrated heading needs (0.55 m there, with no doubt at all)."""
 WANDER_TIME: Final = 300.0
 """s: how long after the last doubt a heading without a bias state is down-weighted."""
@@ -156,6 +156,10 @@ class HeadingWatch:
         along the track, the heading within 1°), and the position data disagreeing then
         tell of the speed, not the heading."""
         return self._pending and self._since is not None and t - self._since >= STILL_TIME
+
+    def under_way_for(self, t: float) -> float:
+        """How long the vehicle has been moving (as :meth:`motion` last heard; 0 when still)."""
+        return t - self._since if self._pending and self._since is not None else 0.0
 
     def motion(self, t: float, speed: float) -> Decision | None:
         """The bias's observability: said when the vehicle has been still, or moving, for
