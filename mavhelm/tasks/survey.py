@@ -36,6 +36,7 @@ CAPTURE = 1.0
 
 class Survey(RouteTask):
     keyword = "Survey"
+    plans_turns = True
     summary = ("mows the lawn over an A × B box: legs Spacing apart, alternate directions, "
                "joined at the ends, all as track lines; posts <NAME>_LEG; completes after the "
                "last leg")

@@ -123,9 +123,11 @@ from collections.abc import Iterable
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
+from mavhelm.tasks import turn_plan
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
+from mavhelm.tasks.turn_plan import Arc
 from mavhelm.tasks.waypoint import RADIUS
 
 LEAD = Number(1.0, 10_000.0)
@@ -217,6 +219,11 @@ class LineFollower:
         self._last_time: float | None = None
         self._fixes: deque[tuple[float, float, float]] = deque()
         self._steady_since: float | None = None
+        self.entry: Arc | None = None
+        """The planned turn onto this line from the one before (``turn_plan``), flown until
+        the vehicle is past its end."""
+        self.ahead = 0.0
+        """How far ahead (m) the entry path's direction is asked for: the heading loop's lag."""
 
     def reset(self) -> None:
         """Forget the learned correction (the vehicle was driven by someone else)."""
@@ -264,6 +271,11 @@ class LineFollower:
         self.measure(p)
         if self.length < DEGENERATE:
             return bearing(p, self.p2)
+        if self.entry is not None:
+            if not self.entry.done(p):
+                aim, self.xte = self.entry.heading(p, self.lead, self.ahead)
+                return aim
+            self.entry = None
         if self._last_time is None or t > self._last_time:
             self.integrating = self._holding_offset(t)
             if self.integrating and self._last_time is not None:
@@ -317,6 +329,11 @@ class RouteTask(SteeringTask):
     follower: LineFollower | None = None
     speedometer: Speedometer | None = None
     index = -1
+    plans_turns = False
+    """Whether the route's corners are planned turns (``turn_plan``): its lines are then left
+    a turn-in early (``turn_in``) and each is entered by its planned path."""
+    flown: tuple[tuple[Point2, Point2], ...] = ()
+    """The last two lines flown before the current one, (P1, P2) each, the latest last."""
 
     def current_lead(self) -> float:
         """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
@@ -337,6 +354,7 @@ class RouteTask(SteeringTask):
         self.follower = None
         self.index = -1  # the target steered for; -1 until the first tick with a position
         self.segment_start_time = now
+        self.flown = ()
 
     def resume(self, now: float | None = None) -> None:
         super().resume(now)
@@ -370,15 +388,26 @@ class RouteTask(SteeringTask):
         """The point the line after target k runs to (None: the route ends at target k)."""
         return self.target(k + 1)
 
+    def beyond(self, k: int) -> Point2 | None:
+        """The point the line after ``after(k)`` runs to (None: unknown, or the end)."""
+        return self.target(k + 2)
+
+    def line_before(self, p1: Point2) -> Point2 | None:
+        """The start of the line flown before the one that starts at ``p1``, if it ended
+        there."""
+        if self.flown and distance(self.flown[-1][1], p1) < CHAIN_GAP:
+            return self.flown[-1][0]
+        return None
+
     def turn_in(self, k: int) -> float:
         """How far before target k to start the line after it, in metres, as a skipper turns
         in before a corner so as to come out of the turn on the new line rather than swing
-        past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
-        the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
-        once), at most one Lead; onto a longer line, also the way run during the heading
-        loop's lag (``TURN_LAG_S`` of the speed, times sin Δ), so that what the turn cannot
-        avoid lands on the shorter line (a survey's join, not its leg); at most half of
-        either line. 0 at the last target."""
+        past it: where the route plans its turns, ``turn_plan.turn_in``; elsewhere, and at
+        corners with no planned turn, pursuit's (``turn_in_distance``: Lead · tan(Δ/2) for a
+        turn of Δ onto the next line, the carrot then on the new line as far ahead as the
+        vehicle is off it, at most one Lead; onto a longer line, also the way run during the
+        heading loop's lag, ``TURN_LAG_S`` of the speed, times sin Δ; at most half of either
+        line). 0 at the last target."""
         p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
@@ -386,20 +415,38 @@ class RouteTask(SteeringTask):
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
+        speed = self.speed_source().speed or 0.0
+        if self.plans_turns:
+            planned = turn_plan.turn_in(self.line_before(follower.p1), follower.p1, p2, after,
+                                        self.beyond(k), self.current_lead(),
+                                        TURN_LAG_S * speed)
+            if planned is not None:
+                return planned
         return turn_in_distance(self.current_lead(), math.radians(min(turn, 90.0)),
-                                distance(p2, after), follower.length,
-                                self.speed_source().speed or 0.0)
+                                distance(p2, after), follower.length, speed)
 
     # ---- driving -------------------------------------------------------------------------
 
-    def start_line(self, k: int, p1: Point2, now: float) -> bool:
-        """Steer from ``p1`` for target k; False (and no line) when the route is over."""
+    def start_line(self, k: int, p1: Point2, now: float,
+                   entry_from: Point2 | None = None) -> bool:
+        """Steer from ``p1`` for target k; False (and no line) when the route is over.
+        ``entry_from``: the start of the line that ends at ``p1``, whose corner with this one
+        is then flown as a planned turn (``turn_plan.corner_arc``) where one fits."""
         p2 = self.target(k)
         self.index = k
+        if self.follower is not None:
+            self.flown = (*self.flown[-1:], (self.follower.p1, self.follower.p2))
         if p2 is None:
             self.follower = None
             return False
-        self.follower = LineFollower(p1, p2, self.current_lead())
+        lead = self.current_lead()
+        self.follower = LineFollower(p1, p2, lead)
+        if entry_from is not None and self.plans_turns:
+            older = self.flown[:-1]
+            before = older[-1][0] if older and distance(older[-1][1], entry_from) < CHAIN_GAP \
+                else None
+            self.follower.entry = turn_plan.entry_path(before, entry_from, p1, p2,
+                                                       self.after(k), lead)
         self.segment_start_time = now
         self.begin(k, now)
         return True
@@ -421,7 +468,7 @@ class RouteTask(SteeringTask):
             if not follower.reached(here, self.capture_radius(self.index)):
                 break
             self.arrived(self.index, now)
-            self.start_line(self.index + 1, follower.p2, now)
+            self.start_line(self.index + 1, follower.p2, now, entry_from=follower.p1)
         return self.steer_on_line(nav, now)
 
     def steer_on_line(self, nav: NavState, now: float) -> Votes | None:
@@ -433,6 +480,7 @@ class RouteTask(SteeringTask):
         assert nav.x is not None and nav.y is not None
         t = nav.time("NAV_X")
         follower.lead = self.current_lead()
+        follower.ahead = TURN_LAG_S * (self.speed_source().speed or 0.0)
         heading = follower.heading((nav.x, nav.y), now if t is None else t)
         self.post(f"{self.name}_XTE", round(follower.xte, 3))
         return self.drive(heading, nav)
@@ -440,6 +488,7 @@ class RouteTask(SteeringTask):
 
 class TrackLine(RouteTask):
     keyword = "TrackLine"
+    plans_turns = True
     summary = ("holds the line P1→P2 (carrot and donkey, with a bounded cross-track integral); "
                "completes within Radius of P2 or once past it; posts <NAME>_XTE")
     params = (
@@ -459,6 +508,11 @@ class TrackLine(RouteTask):
     next_point: Point2 | None = None
     """The P2 of the TrackLine this one starts, when that one continues from this P2
     (``link_track_lines``): this line is then left a turn-in early."""
+    previous: TrackLine | None = None
+    """The TrackLine whose FinishFlag starts this one and whose P2 is this P1
+    (``link_track_lines``): the turn from its line onto this one is a planned turn."""
+    following: TrackLine | None = None
+    """The TrackLine this one starts and that continues from its P2 (``next_point`` its P2)."""
 
     def check(self, block) -> None:
         if self.p1 is not None and math.hypot(self.p2[0] - self.p1[0],
@@ -473,13 +527,22 @@ class TrackLine(RouteTask):
     def after(self, k: int) -> Point2 | None:
         return self.next_point if k == 0 else None
 
+    def beyond(self, k: int) -> Point2 | None:
+        following = self.following
+        return following.next_point if k == 0 and following is not None else None
+
     def capture_radius(self, k: int) -> float:
         return max(self.radius, self.turn_in(k))
 
-    def start_line(self, k: int, p1: Point2, now: float) -> bool:
+    def start_line(self, k: int, p1: Point2, now: float,
+                   entry_from: Point2 | None = None) -> bool:
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
-        return super().start_line(k, p1, now)
+            if self.previous is not None:
+                self.flown = self.previous.flown
+            if entry_from is None:
+                entry_from = self.line_before(p1)
+        return super().start_line(k, p1, now, entry_from)
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:
@@ -492,6 +555,8 @@ def link_track_lines(tasks: Iterable[Task]) -> None:
              if len(nexts := _continuations(first, lines)) == 1]
     for first, then in links:
         first.next_point = (then.p2[0], then.p2[1])
+        then.previous = first
+        first.following = then
     for _ in range(len(links)):
         changed = [then for first, then in links if then.speedometer is not first.speed_source()]
         if not changed:
