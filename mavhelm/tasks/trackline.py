@@ -26,7 +26,7 @@ default fits every speed; a ``Lead`` given in metres is kept whatever the speed 
 tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
 (Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
 damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
-model within 0.15 m at 2 m/s, and at 5 m/s swing 0.2–1.1 m after a corner
+model within 0.15 m at 2 m/s and, with the turns planned (below), within 0.5 m at 5 m/s
 (``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
 (Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
 Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
@@ -81,22 +81,26 @@ cannot fix, an *offset held*:
 In the simulator, 0.3 m/s of current across the line leaves pure pursuit 0.75 m off (RMS);
 with the integral it holds 0.2 m, as in still water.
 
-The turn onto a line. A route that knows its next line turns in to it as a skipper does: it
-leaves each line ``RouteTask.turn_in`` before its end (Lead · tan(Δ/2) for a turn of Δ, at
-most one Lead and half of either line), so the carrot is already on the next line as far
-ahead as the vehicle is off it and pure pursuit brings it out of the turn on the line rather
-than past it. Onto a longer line the turn is also asked for the heading loop's lag earlier
-(``TURN_LAG_S`` of the speed): what a turn cannot avoid then lands on the shorter line, a
-survey's join rather than its leg (at 5 m/s on the real SITL motorboat, with the lag at every
-corner the legs' ends swung 0.6–0.7 m; without it the swing onto each leg was 0.5–1.1 m; with
-it onto the longer line only, 0.2–0.8 m, the vehicle then still closing on the leg 10 m
-along it). Survey turns in at every corner, a leg's end too: flying to a leg's end left the
-vehicle swinging across the short join onto the next leg (at 5 m/s, 1.4 m max on the legs). A
-chain of TrackLine tasks does the same: when exactly one TrackLine starts on this one's
-FinishFlag and continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm tells this
-one the next line at load (``link_track_lines``) and its capture radius becomes at least the
-turn-in; at the old defaults, each chained line flown to its Radius (1 m) swung 1.0–1.25 m
-after every corner.
+The turn onto a line. A route that knows its next line plans the turn onto it
+(``turn_plan``; Survey and chained TrackLines): a corner is an arc of one Lead's radius tangent
+to both lines (smaller where it would not fit in half of either), and a survey's U-turn over a
+short join (half the join within 0.5–2 Leads) one half circle beyond the legs' ends, whose
+diameter is the join. The line is left ``RouteTask.turn_in`` before its end, where the arc
+starts plus the heading loop's lag run (``TURN_LAG_S`` of the speed), and the next line is
+entered along that arc: the heading asked is the path's direction a lag's run ahead of the
+vehicle's projection on it (the turn rate's feed-forward), less atan(offset / Lead), so the
+vehicle comes out of the turn on the line and on its heading. Pursuit of a carrot across the
+corner, as before, could not both turn and settle on a 20 m join at 5 m/s (4 s long): on the
+real SITL motorboat it turned at its 62 deg/s limit, overshot the join by 1 m and swung
+0.2–1.1 m on the next leg 10–15 m along it; planned, 0.08–0.29 m in calm water and the stock
+wind (``benchmarks/bench_tracking.py``). A corner too slight (< 1°), too sharp (> 179°) or too
+tight for an arc of 0.5 m keeps pursuit's turn-in (``turn_in_distance``: Lead · tan(Δ/2), at most
+one Lead and half of either line, plus the lag run times sin Δ onto a longer line). A chain of
+TrackLine tasks does the same: when exactly one TrackLine starts on this one's FinishFlag and
+continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm links the two at load
+(``link_track_lines``), this one's capture radius becomes at least the turn-in, and the next
+one enters its line by the planned turn from this one's; at the old defaults, each chained line
+flown to its Radius (1 m) swung 1.0–1.25 m after every corner.
 
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took

@@ -15,8 +15,10 @@ Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the
 ``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
 
 - a 30° heading step: how long to stay within 1°, and the overshoot;
-- a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, each line left a
-  turn-in early as ``RouteTask.turn_in`` does; the track over the ground following the
+- a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, the turn planned
+  and flown as ``mavhelm.tasks.turn_plan`` does it: one half circle beyond the legs' ends
+  where the candidate's Lead makes it one, else an arc at each corner, each line left its
+  turn-in early and the next entered along the arc; the track over the ground following the
   heading the fitted course lag late, the sideslip and the fix's latency): the largest
   cross-track error on the next leg from 10 m along it (the issue's window), and how long
   after the leg starts its cross-track error stays within 0.1 m.
@@ -47,8 +49,9 @@ SPEED_SPREAD = (0.9, 1.0, 1.1)
 """The U-turn is flown at these fractions of the cruise speed: a line's speed varies, and the
 swing after a turn is sensitive to it (one run to the next on the SITL differs by ±0.3 m at
 5 m/s), so a candidate must do well across them, not at one lucky point."""
-KPSI = tuple(float(v) for v in np.geomspace(1.0, 5.0, 9))
-"""Loop gains tried, 1/s (degrees per second of turn per degree of heading error)."""
+KPSI = tuple(float(v) for v in np.geomspace(0.7, 5.0, 10))
+"""Loop gains tried, 1/s (degrees per second of turn per degree of heading error); down to 0.7:
+with the turns planned, a vehicle of long delay (0.8 s) is best served by a loop below 1 /s."""
 KD_RATIOS = (0.0, 0.1, 0.2, 0.3, 0.45, 0.6)
 """KD/KP tried: the helm's derivative is a 5-tap average two ticks late, so more adds lag."""
 LEAD_TIMES = (0.8, 1.0, 1.25, 1.5, 2.0)
