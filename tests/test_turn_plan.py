@@ -208,3 +208,19 @@ def _one(arcs, i: int, n: int):
     from mavhelm.tuning import gains
     return gains._Arcs(*(np.full(n, getattr(arcs, f)[i]) for f in (
         "sx", "sy", "ex", "ey", "cx", "cy", "radius", "heading_in", "sweep")))
+
+
+@pytest.mark.parametrize("where, planned", [((100.0, -2.0), True), ((60.0, -30.0), False)])
+def test_a_chained_trackline_started_far_from_its_planned_turn_flies_its_line(
+        tblock: TBlock, where, planned: bool) -> None:
+    first = build_task(tblock("TrackLine", ("Name", "A"), ("P1", "0,0"), ("P2", "100,0"),
+                              ("FinishFlag", "Next")))
+    then = build_task(tblock("TrackLine", ("Name", "B"), ("P1", "100,0"), ("P2", "100,-50"),
+                             ("StartFlag", "Next"), ("Lead", "5")))
+    assert isinstance(first, TrackLine) and isinstance(then, TrackLine)
+    link_track_lines([first, then])
+    first.flown = (((0.0, 0.0), (100.0, 0.0)),)     # the first line flown to its end
+    then.start(0.0)
+    then.step(nav_at(1.0, x=where[0], y=where[1], heading=180.0, speed=2.0), 1.0)
+    assert then.follower is not None
+    assert (then.follower.entry is not None) == planned

@@ -435,7 +435,7 @@ class RouteTask(SteeringTask):
                    entry_from: Point2 | None = None) -> bool:
         """Steer from ``p1`` for target k; False (and no line) when the route is over.
         ``entry_from``: the start of the line that ends at ``p1``, whose corner with this one
-        is then flown as a planned turn (``turn_plan.corner_arc``) where one fits."""
+        is then flown as a planned turn (``turn_plan.entry_path``) where one fits."""
         p2 = self.target(k)
         self.index = k
         if self.follower is not None:
@@ -540,13 +540,22 @@ class TrackLine(RouteTask):
 
     def start_line(self, k: int, p1: Point2, now: float,
                    entry_from: Point2 | None = None) -> bool:
+        """The line from P1 (or from ``p1``, where the vehicle is, without one), entered by the
+        planned turn from the previous TrackLine's line when the vehicle is within a Lead of
+        that turn's path (else the previous line was flown long ago, or not to its end)."""
+        here = p1
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
             if self.previous is not None:
                 self.flown = self.previous.flown
             if entry_from is None:
                 entry_from = self.line_before(p1)
-        return super().start_line(k, p1, now, entry_from)
+        started = super().start_line(k, p1, now, entry_from)
+        follower = self.follower
+        if follower is not None and follower.entry is not None and \
+                abs(follower.entry.locate(here)[1]) > follower.lead:
+            follower.entry = None
+        return started
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:
