@@ -92,8 +92,9 @@ vehicle's projection on it (the turn rate's feed-forward), less atan(offset / Le
 vehicle comes out of the turn on the line and on its heading. Pursuit of a carrot across the
 corner, as before, could not both turn and settle on a 20 m join at 5 m/s (4 s long): on the
 real SITL motorboat it turned at its 62 deg/s limit, overshot the join by 1 m and swung
-0.2–1.1 m on the next leg 10–15 m along it; planned, 0.08–0.29 m in calm water and the stock
-wind (``benchmarks/bench_tracking.py``). A corner too slight (< 1°), too sharp (> 179°) or too
+0.2–1.1 m on the next leg 10–15 m along it; planned, 0.13–0.32 m in calm water and the stock
+wind (once 0.52 m, the companion's data stalled at the turn's end), the skid boat 0.15–0.45 m
+(``benchmarks/bench_tracking.py``). A corner too slight (< 1°), too sharp (> 179°) or too
 tight for an arc of 0.5 m keeps pursuit's turn-in (``turn_in_distance``: Lead · tan(Δ/2), at most
 one Lead and half of either line, plus the lag run times sin Δ onto a longer line). A chain of
 TrackLine tasks does the same: when exactly one TrackLine starts on this one's FinishFlag and
