@@ -60,44 +60,56 @@ box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; `
 ``--window issue`` measures each leg from 10 m along it whatever the offset (so the swing after
 the turn onto it counts) to 5 m before its end. Measured so (real SITL, one run each, XTE RMS /
 max in metres; AUTO: 0.13 / 0.20 in calm water at WP_SPEED 2; the survey takes 223 s at
-WP_SPEED 2, AUTO 242 s, and 88 s at 5, the rover-skid 113 s):
+WP_SPEED 2, AUTO 242 s, and 98 s at 5, the rover-skid 126 s: a U-turn's half circle is longer
+than the join it replaces), the turns planned (``mavhelm/tasks/turn_plan.py``):
 
     model           WP_SPEED weather  helm      Survey       TrackLines
-    motorboat       2        calm     defaults  0.01 / 0.06  0.01 / 0.06
-    motorboat       2        wind     defaults  0.02 / 0.15  0.02 / 0.12
-    motorboat       5        calm     defaults  0.06 / 0.44  0.07 / 0.55
-    motorboat       5        wind     defaults  0.10 / 0.77  0.06 / 0.45
-    motorboat-skid  2        calm     defaults  0.01 / 0.05  0.01 / 0.06
-    motorboat-skid  2        wind     defaults  0.02 / 0.13  0.02 / 0.13
-    motorboat-skid  5        calm     defaults  0.20 / 1.06  0.11 / 0.44
-    motorboat-skid  5        wind     defaults  0.11 / 0.41  0.11 / 0.52
-    rover           2        calm     defaults  0.01 / 0.05  0.01 / 0.08
-    rover           5        calm     defaults  0.04 / 0.26  0.05 / 0.22
-    rover-skid      2        calm     defaults  0.02 / 0.10  0.01 / 0.09
-    rover-skid      5        calm     defaults  0.03 / 0.19  0.08 / 0.96
-    motorboat       2        calm     tuned     0.01 / 0.07  0.01 / 0.07
-    motorboat       2        wind     tuned     0.01 / 0.07  0.01 / 0.05
-    motorboat       5        calm     tuned     0.08 / 0.60  0.07 / 0.64
-    motorboat       5        wind     tuned     0.05 / 0.42  0.07 / 0.46
-    motorboat-skid  2        calm     tuned     0.01 / 0.03  0.01 / 0.03
-    motorboat-skid  2        wind     tuned     0.02 / 0.14  0.02 / 0.15
-    motorboat-skid  5        calm     tuned     0.08 / 0.29  0.09 / 0.43
-    motorboat-skid  5        wind     tuned     0.10 / 0.33  0.10 / 0.37
-    rover           2        calm     tuned     0.01 / 0.07  0.01 / 0.06
-    rover           5        calm     tuned     0.04 / 0.16  0.04 / 0.16
-    rover-skid      2        calm     tuned     0.01 / 0.05  0.01 / 0.06
-    rover-skid      5        calm     tuned     0.04 / 0.21  0.03 / 0.17
+    motorboat       2        calm     defaults  0.01 / 0.07  0.01 / 0.06
+    motorboat       2        wind     defaults  0.03 / 0.15  0.02 / 0.11
+    motorboat       5        calm     defaults  0.04 / 0.15  0.04 / 0.13
+    motorboat       5        wind     defaults  0.05 / 0.25  0.07 / 0.29
+    motorboat-skid  2        calm     defaults  0.01 / 0.08  0.01 / 0.07
+    motorboat-skid  2        wind     defaults  0.03 / 0.13  0.03 / 0.14
+    motorboat-skid  5        calm     defaults  0.07 / 0.23  0.07 / 0.25
+    motorboat-skid  5        wind     defaults  0.09 / 0.52  0.22 / 0.89
+    rover           2        calm     defaults  0.01 / 0.07  0.02 / 0.18
+    rover           5        calm     defaults  0.04 / 0.19  0.04 / 0.24
+    rover-skid      2        calm     defaults  0.01 / 0.06  0.01 / 0.11
+    rover-skid      5        calm     defaults  0.03 / 0.12  0.03 / 0.10
+    motorboat       5        calm     tuned     0.04 / 0.15  0.04 / 0.13
+    motorboat       5        wind     tuned     0.06 / 0.25  0.06 / 0.19
+    motorboat-skid  5        calm     tuned     0.09 / 0.46  0.10 / 0.52
+    motorboat-skid  5        wind     tuned     0.09 / 0.45  0.09 / 0.46
+
+Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.17 and 0.04 /
+0.17, and earlier 0.04 / 0.14 and 0.06 / 0.52 (one U-turn: the companion's data stopped for
+0.65 s of vehicle time at the end of the half circle, the last turn rate still commanded); in
+the wind 0.06 / 0.22 and 0.07 / 0.32; the motorboat-skid in calm water 0.09 / 0.45 and 0.05 /
+0.15, in the wind 0.09 / 0.35 and 0.08 / 0.29, then 0.07 / 0.29 and 0.09 / 0.43 (the 0.89
+above, 0.38 m RMS on one leg, did not repeat); the rover 0.04 / 0.08 and 0.04 / 0.11; the
+rover-skid 0.03 / 0.13 and 0.03 / 0.14. Tuned at 5 m/s with the loop gains searched from 1.0 /s rather than 0.7: motorboat
+0.05 / 0.16 calm, 0.06 / 0.21 wind; motorboat-skid 0.07–0.08 / 0.41–0.42 calm (two tunes), 0.08
+/ 0.42 wind (each the worse of the two missions). Before the turns were planned
+(pursuit across each corner), the same hour, the same way (worse of the two missions):
+motorboat 5 m/s 0.06 / 0.30 calm, 0.06 / 0.49 wind; motorboat-skid 0.10 / 0.74 calm, 0.09 /
+0.59 wind; rover 0.08 / 0.52; rover-skid 0.07 / 0.50 (the rows measured in an earlier session
+at a load of about 3: motorboat 0.55–0.77, motorboat-skid 0.52–1.06, rover-skid 0.96). Tuned
+at 2 m/s, and the rovers tuned at 5 m/s, were measured before the turns were planned and not
+again: 0.01–0.02 / 0.03–0.15 at 2 m/s on every model, 0.03–0.04 / 0.16–0.21 for the rovers at
+5 m/s.
 
 (``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
-the defaults' (``mavhelm/tuning/gains.py``), a Lead in metres for the survey's speed. The
-settings it wrote: MaxTurnRate 68–117 (its fitted rate limit at the cruise speed: about 60
-deg/s for the motorboat at 5 m/s, 100–117 for the skid boats), YAW_PID_KP 0.44–0.75, KD
-0–0.12, LeadTime 1–1.5 s; in the stock wind at 5 m/s on the motorboat no candidate was
-predicted better than the defaults and it kept them. It predicts a 30° heading step settling
-in about 2 s where the defaults take 4–12 s with 2–12° of overshoot on the fitted models (the
-turn rate's acceleration limit, about 110 deg/s² on every model, against the defaults' KD 0.2
-through the helm's 5-tap derivative); it predicts the swing after a U-turn at 5 m/s at 0.1–0.2
-m where 0.2–0.7 m is flown, but ranks settings as the SITL does. Measured and not taken: gains
+the defaults' (``mavhelm/tuning/gains.py``, which flies the planned turn as the helm does), a
+Lead in metres for the survey's speed. At 5 m/s it wrote MaxTurnRate 75–77, YAW_PID_KP
+0.68–0.72, KD 0.07, Lead 6.3 for the motorboat and MaxTurnRate 101–105, KP 0.43–0.55, KD
+0.04–0.11, Lead 6.4–7.6 for the motorboat-skid; it predicts the swing after a U-turn at 0.10–0.11
+m (motorboat) and 0.03–0.07 m (motorboat-skid) where 0.13–0.25 and 0.35–0.52 m are flown: the
+skid boat's overshooting turn rate is what its model does not describe, and on it the tuned
+gains flew worse than the defaults. Earlier, before the turns were planned: MaxTurnRate
+68–117, KP 0.44–0.75, KD 0–0.12, LeadTime 1–1.5 s, a 30° heading step predicted to settle in
+about 2 s where the defaults take 4–12 s with 2–12° of overshoot on the fitted models (the turn
+rate's acceleration limit, about 110 deg/s² on every model, against the defaults' KD 0.2
+through the helm's 5-tap derivative). Measured and not taken: gains
 by formula (a PD zero on the fitted lag, a phase margin on the fitted delay, no acceleration
 limit) came out at MaxTurnRate 53–104, KP 0.41–0.57, KD 0.25–0.34 and flew 0.20 / 1.20 on the
 motorboat at 5 m/s and 0.58 / 1.69 on the motorboat-skid; the turn-rate gain K fitted
@@ -106,21 +118,22 @@ runs, and the loop designed on it swung 1–2 m after every turn; without the tr
 behind the heading in the model (0.15–0.3 s: sideslip and the fix's latency), the tuned
 motorboat at 5 m/s flew 0.05–0.14 m RMS, 0.21–0.75 m max over four tunes.)
 
-Where the maximum comes from at 5 m/s (``--dump``, per leg; the defaults, calm): leg 0, a
-straight run in, holds 0.07–0.14 m; on legs 1–3 the maximum is 10–15 m along the leg, 2–3 s
-after the U-turn onto it over the 20 m join, the vehicle still closing on the leg (same side
-as the join) or at its first swing past it; from 30 m along every leg holds within 0.1 m (no
-mid-leg hunting at the defaults in these runs). So it is the capture after a U-turn whose join
-is only 4 s long at 5 m/s, against a pursuit time constant of LeadTime 1.5 s plus the heading
-loop's: a shorter LeadTime with a gentler loop (KP 0.6, KD 0.05, LeadTime 1 s, the fitted
-models' best common choice) flew no better (Survey / TrackLines max: motorboat 0.86 / 0.40 and
-1.78 / 0.37, motorboat-skid 0.49 / 0.48 and 0.42 / -), while the defaults, flown again, swung
-0.47–0.82 m (motorboat) and 0.31–1.30 m (motorboat-skid) from one run to the next: the
-defaults are kept. The motorboat-skid's turn rate overshoots its command at 5 m/s (fit
-residual 10–14 deg/s against 5–7 for the motorboat: a response the fitted model does not
-describe). Run to run, a row's maximum varies by about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s
-(these runs shared two cores with other SITLs, a load of about 3: at ``--speedup 10`` a late
-tick of the companion is ten times later in the vehicle's time).
+Where the maximum came from at 5 m/s with pursuit across the corners (``--dump``, ``--logs``,
+per leg and per tick; the defaults, calm): on legs 1–3, 10–15 m along the leg, 2–3 s after the
+U-turn onto it over the 20 m join (4 s long at 5 m/s). At the leg's end pursuit asked for a
+90° step, the rudder went full (90 deg/s asked), the motorboat turned at its own limit (62
+deg/s) and overshot the join by 1 m; the turn onto the next leg began from there and met the
+leg still closing or at its first swing past it. A shorter LeadTime with a gentler loop (KP
+0.6, KD 0.05, LeadTime 1 s) flew no better. Planned (``mavhelm/tasks/turn_plan.py``): the
+U-turn is one half circle of 10 m radius beyond the legs' ends (29 deg/s, rudder 5–12°, the
+offset on it within 0.1–0.4 m), the leg met on its line and heading; what is left is mostly at
+10–25 m along, the half circle's exit: the motorboat-skid, whose turn rate overshoots its
+command at 5 m/s (fit residual 10–14 deg/s against 5–7 for the motorboat), comes out 0.2–0.4 m
+wide. A longer look-ahead on the arc (0.8 s of the speed rather than ``TURN_LAG_S`` 0.5 s) flew
+no better (motorboat-skid at its tuned gains 0.31 / 0.28 against 0.31 / 0.44; motorboat 0.08 /
+0.46, once 8.2 m on one leg, not understood, against 0.15 / 0.23). Run to run, a row's maximum
+varies by about ±0.3 m at 5 m/s and ±0.05 m at 2 m/s (two cores shared with other work: at
+``--speedup 10`` a late tick of the companion is ten times later in the vehicle's time).
 
 Without MAVHELM_ARDUPILOT only the simulator rows are printed (exit 0). A run takes about
 2.5 minutes of wall time (each real-SITL mission about 30 s). Run:

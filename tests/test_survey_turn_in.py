@@ -21,13 +21,16 @@ def survey(tblock: TBlock, lead: str = "5") -> Survey:
     return task
 
 
-@pytest.mark.parametrize("lead, expected", [("5", 5.0), ("3", 3.0), ("20", 5.0)])
+@pytest.mark.parametrize("lead, expected", [("5", CAPTURE), ("3", CAPTURE), ("20", 5.0)])
 def test_a_leg_start_and_a_leg_end_are_turned_in_to(tblock: TBlock, lead, expected):
     task = survey(tblock, lead)
     # on the join from leg 0's end (25, 50) to leg 1's start (25, 40): a 90° turn onto leg 1
     task.index = 2
     task.follower = LineFollower(task.target(1), task.target(2), task.lead)
-    # Lead · tan(45°), at most a Lead and half the 10 m join
+    # the arc's turn-in, Lead · tan(45°), at most half the 10 m join (no speed: no lag);
+    # with Lead 3 or 5 the join is a U-turn's (half of it within 0.5-2 Leads), one half
+    # circle beyond the legs' ends that ends on leg 1: the join is flown to its end
+    task.flown = ((task.target(0), task.target(1)),)
     assert task.capture_radius(2) == pytest.approx(expected)
     # on leg 1 itself: the 90° turn onto the join to leg 2, as far (the join is 10 m)
     task.index = 3

@@ -56,10 +56,10 @@ def test_a_chained_trackline_is_left_a_turn_in_before_its_end(tblock: TBlock) ->
     link_track_lines([first, then])
     first.start(0.0)
     x = drive_east(first, 100.0)
-    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn: Lead · tan(45°) = 3 m before the corner
-    # (onto a shorter line: no more)
+    # Lead = LeadTime × 2 m/s = 3 m; a 90° turn on an arc of one Lead: Lead · tan(45°) = 3 m
+    # before the corner, and the heading loop's lag run earlier (turn_plan.turn_in)
     lead = DEFAULT_LEAD_TIME * 2.0
-    assert x == pytest.approx(100.0 - lead, abs=0.25)
+    assert x == pytest.approx(100.0 - lead - TURN_LAG_S * 2.0, abs=0.25)
 
 
 def test_onto_a_longer_line_the_turn_is_asked_for_a_lag_earlier(tblock: TBlock) -> None:

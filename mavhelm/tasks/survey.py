@@ -8,9 +8,13 @@ next is one spacing to starboard and flown back the other way, and so on (boustr
 vehicle first runs a line from where it is when the task goes active to the start of leg 0;
 then each leg, and each joining segment from the end of one leg to the start of the next, is
 held as a TrackLine (carrot ``Lead`` metres ahead, bounded cross-track integral, see
-``trackline``). Each corner, a leg's end as well as its start, is turned in to: the line is
-left a turn-in before it (``RouteTask.turn_in``: about one Lead, LeadTime seconds of the
-speed), else within 1 m of it or once past it along the line. The task posts ``<NAME>_LEG``
+``trackline``). The turns are planned (``turn_plan``): where half the join is within 0.5–2
+Leads (a 20 m join from 5 to 20 m of Lead: at 5 m/s with the default LeadTime), the U-turn from
+a leg to the next is one half circle whose diameter is the join, flown beyond the legs' ends
+(Spacing / 2 outside the box), so each leg is flown whole, from its start to its end; else each
+corner is an arc of one Lead that cuts it. A line is left a turn-in before its corner (where
+its arc starts, plus the heading loop's lag run: ``RouteTask.turn_in``), else within 1 m of it
+or once past it along the line. The task posts ``<NAME>_LEG``
 (index from 0) as each leg begins and ``<NAME>_XTE`` every tick, and completes at the end of
 the last leg.
 
@@ -36,6 +40,7 @@ CAPTURE = 1.0
 
 class Survey(RouteTask):
     keyword = "Survey"
+    plans_turns = True
     summary = ("mows the lawn over an A × B box: legs Spacing apart, alternate directions, "
                "joined at the ends, all as track lines; posts <NAME>_LEG; completes after the "
                "last leg")
@@ -77,10 +82,8 @@ class Survey(RouteTask):
         return self.legs[leg][end]
 
     def capture_radius(self, k: int) -> float:
-        """Every corner is turned in to, a leg's end as well as its start: flown to, a leg's
-        end leaves the vehicle to swing past the short join and onto the next leg swinging
-        (at 5 m/s on the real SITL motorboat 1.4 m max on the legs, against 0.4–0.8 m
-        turning in at every corner)."""
+        """Every corner is turned in to, a leg's end as well as its start (a U-turn's half
+        circle only the lag's run early: it starts at the leg's end)."""
         return max(CAPTURE, self.turn_in(k))
 
     def begin(self, k: int, now: float) -> None:

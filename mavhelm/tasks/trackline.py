@@ -26,7 +26,7 @@ default fits every speed; a ``Lead`` given in metres is kept whatever the speed 
 tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
 (Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
 damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
-model within 0.15 m at 2 m/s, and at 5 m/s swing 0.2–1.1 m after a corner
+model within 0.15 m at 2 m/s and, with the turns planned (below), within 0.5 m at 5 m/s
 (``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
 (Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
 Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
@@ -81,22 +81,27 @@ cannot fix, an *offset held*:
 In the simulator, 0.3 m/s of current across the line leaves pure pursuit 0.75 m off (RMS);
 with the integral it holds 0.2 m, as in still water.
 
-The turn onto a line. A route that knows its next line turns in to it as a skipper does: it
-leaves each line ``RouteTask.turn_in`` before its end (Lead · tan(Δ/2) for a turn of Δ, at
-most one Lead and half of either line), so the carrot is already on the next line as far
-ahead as the vehicle is off it and pure pursuit brings it out of the turn on the line rather
-than past it. Onto a longer line the turn is also asked for the heading loop's lag earlier
-(``TURN_LAG_S`` of the speed): what a turn cannot avoid then lands on the shorter line, a
-survey's join rather than its leg (at 5 m/s on the real SITL motorboat, with the lag at every
-corner the legs' ends swung 0.6–0.7 m; without it the swing onto each leg was 0.5–1.1 m; with
-it onto the longer line only, 0.2–0.8 m, the vehicle then still closing on the leg 10 m
-along it). Survey turns in at every corner, a leg's end too: flying to a leg's end left the
-vehicle swinging across the short join onto the next leg (at 5 m/s, 1.4 m max on the legs). A
-chain of TrackLine tasks does the same: when exactly one TrackLine starts on this one's
-FinishFlag and continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm tells this
-one the next line at load (``link_track_lines``) and its capture radius becomes at least the
-turn-in; at the old defaults, each chained line flown to its Radius (1 m) swung 1.0–1.25 m
-after every corner.
+The turn onto a line. A route that knows its next line plans the turn onto it
+(``turn_plan``; Survey and chained TrackLines): a corner is an arc of one Lead's radius tangent
+to both lines (smaller where it would not fit in half of either), and a survey's U-turn over a
+short join (half the join within 0.5–2 Leads) one half circle beyond the legs' ends, whose
+diameter is the join. The line is left ``RouteTask.turn_in`` before its end, where the arc
+starts plus the heading loop's lag run (``TURN_LAG_S`` of the speed), and the next line is
+entered along that arc: the heading asked is the path's direction a lag's run ahead of the
+vehicle's projection on it (the turn rate's feed-forward), less atan(offset / Lead), so the
+vehicle comes out of the turn on the line and on its heading. Pursuit of a carrot across the
+corner, as before, could not both turn and settle on a 20 m join at 5 m/s (4 s long): on the
+real SITL motorboat it turned at its 62 deg/s limit, overshot the join by 1 m and swung
+0.2–1.1 m on the next leg 10–15 m along it; planned, 0.13–0.32 m in calm water and the stock
+wind (once 0.52 m, the companion's data stalled at the turn's end), the skid boat 0.15–0.45 m
+(``benchmarks/bench_tracking.py``). A corner too slight (< 1°), too sharp (> 179°) or too
+tight for an arc of 0.5 m keeps pursuit's turn-in (``turn_in_distance``: Lead · tan(Δ/2), at most
+one Lead and half of either line, plus the lag run times sin Δ onto a longer line). A chain of
+TrackLine tasks does the same: when exactly one TrackLine starts on this one's FinishFlag and
+continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm links the two at load
+(``link_track_lines``), this one's capture radius becomes at least the turn-in, and the next
+one enters its line by the planned turn from this one's; at the old defaults, each chained line
+flown to its Radius (1 m) swung 1.0–1.25 m after every corner.
 
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
@@ -123,9 +128,11 @@ from collections.abc import Iterable
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
+from mavhelm.tasks import turn_plan
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
+from mavhelm.tasks.turn_plan import Arc
 from mavhelm.tasks.waypoint import RADIUS
 
 LEAD = Number(1.0, 10_000.0)
@@ -217,6 +224,11 @@ class LineFollower:
         self._last_time: float | None = None
         self._fixes: deque[tuple[float, float, float]] = deque()
         self._steady_since: float | None = None
+        self.entry: Arc | None = None
+        """The planned turn onto this line from the one before (``turn_plan``), flown until
+        the vehicle is past its end."""
+        self.ahead = 0.0
+        """How far ahead (m) the entry path's direction is asked for: the heading loop's lag."""
 
     def reset(self) -> None:
         """Forget the learned correction (the vehicle was driven by someone else)."""
@@ -264,6 +276,11 @@ class LineFollower:
         self.measure(p)
         if self.length < DEGENERATE:
             return bearing(p, self.p2)
+        if self.entry is not None:
+            if not self.entry.done(p):
+                aim, self.xte = self.entry.heading(p, self.lead, self.ahead)
+                return aim
+            self.entry = None
         if self._last_time is None or t > self._last_time:
             self.integrating = self._holding_offset(t)
             if self.integrating and self._last_time is not None:
@@ -317,6 +334,11 @@ class RouteTask(SteeringTask):
     follower: LineFollower | None = None
     speedometer: Speedometer | None = None
     index = -1
+    plans_turns = False
+    """Whether the route's corners are planned turns (``turn_plan``): its lines are then left
+    a turn-in early (``turn_in``) and each is entered by its planned path."""
+    flown: tuple[tuple[Point2, Point2], ...] = ()
+    """The last two lines flown before the current one, (P1, P2) each, the latest last."""
 
     def current_lead(self) -> float:
         """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
@@ -337,6 +359,7 @@ class RouteTask(SteeringTask):
         self.follower = None
         self.index = -1  # the target steered for; -1 until the first tick with a position
         self.segment_start_time = now
+        self.flown = ()
 
     def resume(self, now: float | None = None) -> None:
         super().resume(now)
@@ -370,15 +393,26 @@ class RouteTask(SteeringTask):
         """The point the line after target k runs to (None: the route ends at target k)."""
         return self.target(k + 1)
 
+    def beyond(self, k: int) -> Point2 | None:
+        """The point the line after ``after(k)`` runs to (None: unknown, or the end)."""
+        return self.target(k + 2)
+
+    def line_before(self, p1: Point2) -> Point2 | None:
+        """The start of the line flown before the one that starts at ``p1``, if it ended
+        there."""
+        if self.flown and distance(self.flown[-1][1], p1) < CHAIN_GAP:
+            return self.flown[-1][0]
+        return None
+
     def turn_in(self, k: int) -> float:
         """How far before target k to start the line after it, in metres, as a skipper turns
         in before a corner so as to come out of the turn on the new line rather than swing
-        past it: Lead · tan(Δ/2) for a turn of Δ onto the next line (the carrot then lies on
-        the new line as far ahead as the vehicle is off it, and pure pursuit turns it in at
-        once), at most one Lead; onto a longer line, also the way run during the heading
-        loop's lag (``TURN_LAG_S`` of the speed, times sin Δ), so that what the turn cannot
-        avoid lands on the shorter line (a survey's join, not its leg); at most half of
-        either line. 0 at the last target."""
+        past it: where the route plans its turns, ``turn_plan.turn_in``; elsewhere, and at
+        corners with no planned turn, pursuit's (``turn_in_distance``: Lead · tan(Δ/2) for a
+        turn of Δ onto the next line, the carrot then on the new line as far ahead as the
+        vehicle is off it, at most one Lead; onto a longer line, also the way run during the
+        heading loop's lag, ``TURN_LAG_S`` of the speed, times sin Δ; at most half of either
+        line). 0 at the last target."""
         p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
@@ -386,20 +420,38 @@ class RouteTask(SteeringTask):
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
+        speed = self.speed_source().speed or 0.0
+        if self.plans_turns:
+            planned = turn_plan.turn_in(self.line_before(follower.p1), follower.p1, p2, after,
+                                        self.beyond(k), self.current_lead(),
+                                        TURN_LAG_S * speed)
+            if planned is not None:
+                return planned
         return turn_in_distance(self.current_lead(), math.radians(min(turn, 90.0)),
-                                distance(p2, after), follower.length,
-                                self.speed_source().speed or 0.0)
+                                distance(p2, after), follower.length, speed)
 
     # ---- driving -------------------------------------------------------------------------
 
-    def start_line(self, k: int, p1: Point2, now: float) -> bool:
-        """Steer from ``p1`` for target k; False (and no line) when the route is over."""
+    def start_line(self, k: int, p1: Point2, now: float,
+                   entry_from: Point2 | None = None) -> bool:
+        """Steer from ``p1`` for target k; False (and no line) when the route is over.
+        ``entry_from``: the start of the line that ends at ``p1``, whose corner with this one
+        is then flown as a planned turn (``turn_plan.entry_path``) where one fits."""
         p2 = self.target(k)
         self.index = k
+        if self.follower is not None:
+            self.flown = (*self.flown[-1:], (self.follower.p1, self.follower.p2))
         if p2 is None:
             self.follower = None
             return False
-        self.follower = LineFollower(p1, p2, self.current_lead())
+        lead = self.current_lead()
+        self.follower = LineFollower(p1, p2, lead)
+        if entry_from is not None and self.plans_turns:
+            older = self.flown[:-1]
+            before = older[-1][0] if older and distance(older[-1][1], entry_from) < CHAIN_GAP \
+                else None
+            self.follower.entry = turn_plan.entry_path(before, entry_from, p1, p2,
+                                                       self.after(k), lead)
         self.segment_start_time = now
         self.begin(k, now)
         return True
@@ -421,7 +473,7 @@ class RouteTask(SteeringTask):
             if not follower.reached(here, self.capture_radius(self.index)):
                 break
             self.arrived(self.index, now)
-            self.start_line(self.index + 1, follower.p2, now)
+            self.start_line(self.index + 1, follower.p2, now, entry_from=follower.p1)
         return self.steer_on_line(nav, now)
 
     def steer_on_line(self, nav: NavState, now: float) -> Votes | None:
@@ -433,6 +485,7 @@ class RouteTask(SteeringTask):
         assert nav.x is not None and nav.y is not None
         t = nav.time("NAV_X")
         follower.lead = self.current_lead()
+        follower.ahead = TURN_LAG_S * (self.speed_source().speed or 0.0)
         heading = follower.heading((nav.x, nav.y), now if t is None else t)
         self.post(f"{self.name}_XTE", round(follower.xte, 3))
         return self.drive(heading, nav)
@@ -440,6 +493,7 @@ class RouteTask(SteeringTask):
 
 class TrackLine(RouteTask):
     keyword = "TrackLine"
+    plans_turns = True
     summary = ("holds the line P1→P2 (carrot and donkey, with a bounded cross-track integral); "
                "completes within Radius of P2 or once past it; posts <NAME>_XTE")
     params = (
@@ -459,6 +513,11 @@ class TrackLine(RouteTask):
     next_point: Point2 | None = None
     """The P2 of the TrackLine this one starts, when that one continues from this P2
     (``link_track_lines``): this line is then left a turn-in early."""
+    previous: TrackLine | None = None
+    """The TrackLine whose FinishFlag starts this one and whose P2 is this P1
+    (``link_track_lines``): the turn from its line onto this one is a planned turn."""
+    following: TrackLine | None = None
+    """The TrackLine this one starts and that continues from its P2 (``next_point`` its P2)."""
 
     def check(self, block) -> None:
         if self.p1 is not None and math.hypot(self.p2[0] - self.p1[0],
@@ -473,13 +532,31 @@ class TrackLine(RouteTask):
     def after(self, k: int) -> Point2 | None:
         return self.next_point if k == 0 else None
 
+    def beyond(self, k: int) -> Point2 | None:
+        following = self.following
+        return following.next_point if k == 0 and following is not None else None
+
     def capture_radius(self, k: int) -> float:
         return max(self.radius, self.turn_in(k))
 
-    def start_line(self, k: int, p1: Point2, now: float) -> bool:
+    def start_line(self, k: int, p1: Point2, now: float,
+                   entry_from: Point2 | None = None) -> bool:
+        """The line from P1 (or from ``p1``, where the vehicle is, without one), entered by the
+        planned turn from the previous TrackLine's line when the vehicle is within a Lead of
+        that turn's path (else the previous line was flown long ago, or not to its end)."""
+        here = p1
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
-        return super().start_line(k, p1, now)
+            if self.previous is not None:
+                self.flown = self.previous.flown
+            if entry_from is None:
+                entry_from = self.line_before(p1)
+        started = super().start_line(k, p1, now, entry_from)
+        follower = self.follower
+        if follower is not None and follower.entry is not None and \
+                abs(follower.entry.locate(here)[1]) > follower.lead:
+            follower.entry = None
+        return started
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:
@@ -492,6 +569,8 @@ def link_track_lines(tasks: Iterable[Task]) -> None:
              if len(nexts := _continuations(first, lines)) == 1]
     for first, then in links:
         first.next_point = (then.p2[0], then.p2[1])
+        then.previous = first
+        first.following = then
     for _ in range(len(links)):
         changed = [then for first, then in links if then.speedometer is not first.speed_source()]
         if not changed:

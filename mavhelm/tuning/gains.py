@@ -15,8 +15,10 @@ Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the
 ``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
 
 - a 30° heading step: how long to stay within 1°, and the overshoot;
-- a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, each line left a
-  turn-in early as ``RouteTask.turn_in`` does; the track over the ground following the
+- a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, the turn planned
+  and flown as ``mavhelm.tasks.turn_plan`` does it: one half circle beyond the legs' ends
+  where the candidate's Lead makes it one, else an arc at each corner, each line left its
+  turn-in early and the next entered along the arc; the track over the ground following the
   heading the fitted course lag late, the sideslip and the fix's latency): the largest
   cross-track error on the next leg from 10 m along it (the issue's window), and how long
   after the leg starts its cross-track error stays within 0.1 m.
@@ -47,8 +49,9 @@ SPEED_SPREAD = (0.9, 1.0, 1.1)
 """The U-turn is flown at these fractions of the cruise speed: a line's speed varies, and the
 swing after a turn is sensitive to it (one run to the next on the SITL differs by ±0.3 m at
 5 m/s), so a candidate must do well across them, not at one lucky point."""
-KPSI = tuple(float(v) for v in np.geomspace(1.0, 5.0, 9))
-"""Loop gains tried, 1/s (degrees per second of turn per degree of heading error)."""
+KPSI = tuple(float(v) for v in np.geomspace(0.7, 5.0, 10))
+"""Loop gains tried, 1/s (degrees per second of turn per degree of heading error); down to 0.7:
+with the turns planned, a vehicle of long delay (0.8 s) is best served by a loop below 1 /s."""
 KD_RATIOS = (0.0, 0.1, 0.2, 0.3, 0.45, 0.6)
 """KD/KP tried: the helm's derivative is a 5-tap average two ticks late, so more adds lag."""
 LEAD_TIMES = (0.8, 1.0, 1.25, 1.5, 2.0)
@@ -187,12 +190,78 @@ def _heading_step(c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
     return _settle(errs, ts, HEADING_TOLERANCE), np.maximum(0.0, -errs.min(axis=0))
 
 
-def _turn_in(lead: np.ndarray, speed: float, following: float, current: float,
-             turn_lag: float) -> np.ndarray:
-    """``RouteTask.turn_in`` for a 90° turn: a Lead (tan 45°), onto a longer line the lag's
-    run too, at most half of either line."""
-    ahead = lead + (turn_lag * speed if following > current else 0.0)
-    return np.minimum(ahead, 0.5 * min(following, current))
+FIT = 0.5
+"""A planned turn's arc joins each line no further than this fraction of it from the corner
+(``mavhelm.tasks.turn_plan.FIT``)."""
+U_TURN_LEADS = (0.5, 2.0)
+"""A U-turn is one half circle when half its join is within these many Leads
+(``mavhelm.tasks.turn_plan.U_TURN_LEADS``)."""
+
+
+@dataclass(frozen=True)
+class _Arcs:
+    """One planned turn per candidate (``mavhelm.tasks.turn_plan.Arc``), as arrays: the
+    start, the end, the centre, the radius, the direction in (degrees) and the signed sweep
+    (radians, positive clockwise)."""
+
+    sx: np.ndarray
+    sy: np.ndarray
+    ex: np.ndarray
+    ey: np.ndarray
+    cx: np.ndarray
+    cy: np.ndarray
+    radius: np.ndarray
+    heading_in: np.ndarray
+    sweep: np.ndarray
+
+
+def _bearing(x0: np.ndarray, y0: np.ndarray, x1: np.ndarray, y1: np.ndarray) -> np.ndarray:
+    return np.degrees(np.arctan2(x1 - x0, y1 - y0)) % 360.0
+
+
+def _arc_heading(a: _Arcs, x: np.ndarray, y: np.ndarray, lead: np.ndarray,
+                 ahead: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(desired heading, distance along the entry path, offset) of each candidate flying its
+    planned turn, as ``Arc.heading`` and ``Arc.locate`` do."""
+    side = np.sign(a.sweep)
+    sweep = np.degrees(np.abs(a.sweep))
+    length = a.radius * np.abs(a.sweep)
+    heading_out = (a.heading_in + np.degrees(a.sweep)) % 360.0
+    turned = (side * (_bearing(a.cx, a.cy, x, y) - _bearing(a.cx, a.cy, a.sx, a.sy))) % 360.0
+    on_arc = turned <= sweep
+    out = ~on_arc & (turned < (sweep + 360.0) / 2.0)
+    ho, hi = np.radians(heading_out), np.radians(a.heading_in)
+    past = (x - a.ex) * np.sin(ho) + (y - a.ey) * np.cos(ho)
+    xte_out = (x - a.ex) * np.cos(ho) - (y - a.ey) * np.sin(ho)
+    before = (x - a.sx) * np.sin(hi) + (y - a.sy) * np.cos(hi)
+    xte_in = (x - a.sx) * np.cos(hi) - (y - a.sy) * np.sin(hi)
+    s = np.where(on_arc, np.radians(turned) * a.radius, np.where(out, length + past, before))
+    xte = np.where(on_arc, side * (a.radius - np.hypot(x - a.cx, y - a.cy)),
+                   np.where(out, xte_out, xte_in))
+    fraction = np.clip((s + ahead) / np.maximum(length, 1e-9), 0.0, 1.0)
+    aim = a.heading_in + np.degrees(a.sweep) * fraction - np.degrees(np.arctan(xte / lead))
+    return aim % 360.0, s, xte
+
+
+def _u_turn_plan(lead: np.ndarray, leg: float, lag: float
+                 ) -> tuple[np.ndarray, list[np.ndarray], list[_Arcs | None]]:
+    """The survey's U-turn as ``mavhelm.tasks.turn_plan`` plans it, per candidate (a leg east
+    to (0, 0), the join south to (0, -JOIN), the next leg west): (whether it is one half
+    circle, how far before each corner the line is left, the entry path of the join and of
+    the next leg, None where it has none)."""
+    n = len(lead)
+    half = JOIN / 2.0
+    one = (U_TURN_LEADS[0] * lead <= half) & (half <= U_TURN_LEADS[1] * lead)
+    r = np.minimum(lead, FIT * min(JOIN, leg))  # a 90° corner: tan 45° = 1
+    leave = [np.where(one, min(lag, FIT * leg), np.minimum(r + lag, FIT * leg)),
+             np.where(one, 0.0, np.minimum(r + lag, FIT * JOIN)), np.zeros(n)]
+    full = np.full(n, 1.0)
+    join = _Arcs(np.where(one, 0.0, -r), np.zeros(n), np.where(one, 0.0, 0.0),
+                 np.where(one, -JOIN, -r), np.where(one, 0.0, -r), np.where(one, -half, -r),
+                 np.where(one, half, r), full * 90.0, np.where(one, np.pi, np.pi / 2.0))
+    onto_leg = _Arcs(np.zeros(n), -JOIN + r, -r, full * -JOIN, -r, -JOIN + r, r, full * 180.0,
+                     full * np.pi / 2.0)
+    return one, leave, [None, join, onto_leg]
 
 
 def _pursuit(p1: np.ndarray, p2: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -225,31 +294,39 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
     the track following the heading ``course.course_lag`` late: (largest |XTE| on the next
     leg in LEG_WINDOW, seconds from the start of that leg until its XTE stays within
     LINE_TOLERANCE)."""
-    turn_lag = course.turn_lag
     n = len(c.kp)
     lead = np.maximum(MIN_LEAD, c.lead_time * speed)
     leg = 10.0 * LEG_WINDOW[1]
+    ahead = course.turn_lag * speed
+    one, leave, entries = _u_turn_plan(lead, leg, ahead)
     corners = np.array([[-leg, 0.0], [0.0, 0.0], [0.0, -JOIN], [-leg, -JOIN]])
-    leave = [_turn_in(lead, speed, JOIN, leg, turn_lag),
-             _turn_in(lead, speed, leg, JOIN, turn_lag), np.zeros(n)]
     run_in = JOIN + 2.0 * speed * max(LEAD_TIMES)
     x = np.full(n, -run_in)
     y = np.zeros(n)
     k = np.zeros(n, dtype=int)
+    on_entry = np.zeros(n, dtype=bool)
     loop = _Loop(c, yaw, delay, max_rudder, app_tick, psi0=90.0)
     track = [loop.psi.copy() for _ in range(round(course.course_lag / DT) + 1)]
     swing, settle, leg_start, last_big = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     t = 0.0
-    horizon = (run_in + JOIN + LEG_WINDOW[1]) / max(speed, 0.1) + 10.0
+    horizon = (run_in + JOIN + np.pi * JOIN / 2.0 + LEG_WINDOW[1]) / max(speed, 0.1) + 10.0
     while t < horizon:
-        desired, along, xte = _pursuit(corners[k], corners[k + 1], x, y, lead)
+        _, along, _ = _pursuit(corners[k], corners[k + 1], x, y, lead)
         length = np.hypot(*(corners[k + 1] - corners[k]).T)
         turn_in = np.choose(k, leave)
         advance = (k < 2) & (along >= length - np.maximum(turn_in, 1.0))
         k = np.where(advance, k + 1, k)
-        if advance.any():
-            desired, along, xte = _pursuit(corners[k], corners[k + 1], x, y, lead)
-            leg_start = np.where(advance & (k == 2), t, leg_start)
+        on_entry = np.where(advance, (k == 1) | ((k == 2) & ~one), on_entry)
+        leg_start = np.where(advance & (k == 2), t, leg_start)
+        desired, along, xte = _pursuit(corners[k], corners[k + 1], x, y, lead)
+        for line, arcs in enumerate(entries):
+            if arcs is None or not (on_entry & (k == line)).any():
+                continue
+            aim, s, offset = _arc_heading(arcs, x, y, lead, ahead)
+            flying = on_entry & (k == line) & (s < arcs.radius * np.abs(arcs.sweep))
+            on_entry &= ~(on_entry & (k == line)) | flying
+            desired = np.where(flying, aim, desired)
+            xte = np.where(flying, offset, xte)
         on_leg = k == 2
         window = on_leg & (along >= LEG_WINDOW[0]) & (along <= LEG_WINDOW[1])
         swing = np.where(window, np.maximum(swing, np.abs(xte)), swing)

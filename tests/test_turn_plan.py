@@ -1,0 +1,226 @@
+"""The planned turn onto a line (mavhelm.tasks.turn_plan): its geometry, how it is flown, the
+routes that plan it (Survey, chained TrackLines) and the tune's restatement of it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavhelm.tasks import turn_plan
+from mavhelm.tasks.registry import build_task
+from mavhelm.tasks.survey import Survey
+from mavhelm.tasks.trackline import TURN_LAG_S, TrackLine, link_track_lines
+from mavhelm.tasks.turn_plan import Arc, corner_arc, entry_path, is_u_turn, u_turn_arc
+from tests.support.task_rig import TBlock, nav_at, task_block
+
+
+def test_a_corner_arc_is_tangent_to_both_lines() -> None:
+    arc = corner_arc((0.0, 0.0), (100.0, 0.0), (100.0, -50.0), 7.5)
+    assert arc is not None
+    assert arc.radius == pytest.approx(7.5)
+    assert arc.start == pytest.approx((92.5, 0.0))
+    assert arc.end == pytest.approx((100.0, -7.5))
+    assert arc.centre == pytest.approx((92.5, -7.5))      # to starboard: a right turn
+    assert arc.sweep == pytest.approx(math.pi / 2)
+    assert arc.turn_in == pytest.approx(7.5)
+    assert arc.heading_out == pytest.approx(180.0)
+
+
+def test_a_corner_arc_fits_in_half_of_either_line() -> None:
+    arc = corner_arc((0.0, 0.0), (100.0, 0.0), (100.0, 10.0), 7.5)   # a left turn, 10 m on
+    assert arc is not None
+    assert arc.radius == pytest.approx(5.0) and arc.sweep == pytest.approx(-math.pi / 2)
+    assert arc.centre == pytest.approx((95.0, 5.0))
+
+
+@pytest.mark.parametrize("p2", [(100.5, 0.001), (0.0, 0.0), (100.0, 0.001)])
+def test_no_arc_straight_on_reversed_or_too_tight(p2) -> None:
+    assert corner_arc((0.0, 0.0), (100.0, 0.0), p2, 7.5) is None
+
+
+def test_locate_and_heading_on_each_part_of_the_entry_path() -> None:
+    arc = corner_arc((0.0, 0.0), (100.0, 0.0), (100.0, -50.0), 5.0)
+    assert arc is not None
+    # on the line in, 1 m to starboard (south), 3 m before the arc
+    assert arc.locate((92.0, -1.0)) == pytest.approx((-3.0, 1.0))
+    # half way round, 0.5 m outside the arc: to port of a right turn
+    mid = (95.0 + 5.5 * math.sin(math.radians(45)), -5.0 + 5.5 * math.cos(math.radians(45)))
+    s, xte = arc.locate(mid)
+    assert s == pytest.approx(5.0 * math.pi / 4) and xte == pytest.approx(-0.5)
+    # on the line out, 0.2 m to starboard (west), 4 m past the arc
+    assert arc.locate((99.8, -9.0)) == pytest.approx((arc.length + 4.0, 0.2))
+    # on the arc, on it: the tangent there, or ahead along the path
+    on = (95.0 + 5.0 * math.sin(math.radians(30)), -5.0 + 5.0 * math.cos(math.radians(30)))
+    assert arc.heading(on, 5.0, 0.0) == pytest.approx((120.0, 0.0), abs=1e-9)
+    assert arc.heading(on, 5.0, 100.0)[0] == pytest.approx(180.0)
+    # off it, pursuit's correction: atan(offset / Lead) back towards it
+    assert arc.heading(mid, 5.0, 0.0)[0] == pytest.approx(135.0 + math.degrees(
+        math.atan(0.5 / 5.0)))
+    assert not arc.done(on) and arc.done((100.0, -9.0))
+
+
+def test_a_u_turn_is_one_half_circle_beyond_the_lines_ends() -> None:
+    legs = ((0.0, 0.0), (100.0, 0.0), (100.0, -20.0), (0.0, -20.0))
+    assert is_u_turn(*legs, 7.5)
+    assert not is_u_turn(*legs, 3.0)         # 10 m is more than two Leads: two corners
+    assert not is_u_turn(*legs, 25.0)        # less than half a Lead: too tight for one
+    assert not is_u_turn(legs[0], legs[1], legs[2], (0.0, -25.0), 7.5)   # not parallel
+    arc = u_turn_arc(*legs[:3])
+    assert arc.centre == pytest.approx((100.0, -10.0)) and arc.radius == pytest.approx(10.0)
+    assert arc.sweep == pytest.approx(math.pi) and arc.heading_out == pytest.approx(270.0)
+    assert arc.locate((110.0, -10.0)) == pytest.approx((5.0 * math.pi, 0.0), abs=1e-9)
+    assert entry_path(None, *legs, 7.5) == arc
+    assert entry_path(legs[0], legs[1], legs[2], legs[3], None, 7.5) is None
+    # the line is flown to its end (less the lag), the join to its end
+    assert turn_plan.turn_in(None, *legs, 7.5, 2.5) == pytest.approx(2.5)
+    assert turn_plan.turn_in(*legs, None, 7.5, 2.5) == 0.0
+
+
+def survey(tblock: TBlock, lead: str) -> Survey:
+    task = build_task(tblock("Survey", ("InitialState", "ON"), ("Name", "S"),
+                             ("Center", "70,-30"), ("A", "100"), ("B", "60"),
+                             ("Spacing", "20"), ("Rotation", "90"), ("Lead", lead),
+                             ("Thrust", "100"), ("TimeOut", "1000")))
+    assert isinstance(task, Survey)
+    return task
+
+
+def fly(task, speed: float, *, tasks=(), limit: float = 60.0, tau: float = 0.2,
+        dt: float = 0.1, max_t: float = 200.0) -> list[tuple[float, float]]:
+    """A kinematic vehicle on the helm's output: full rudder (20°) a turn of 90 deg/s, the turn
+    rate a lag of ``tau`` limited to ``limit`` deg/s; the track, one point a tick. ``tasks``:
+    the chain after ``task``, each started when the one before completes."""
+    x = y = 0.0
+    heading, rate, t = 90.0, 0.0, 1.0
+    track = []
+    chain = [task, *tasks]
+    task.start(0.0)
+    while t < max_t and chain:
+        votes = chain[0].step(nav_at(t, x=x, y=y, heading=heading % 360.0, speed=speed), t)
+        if not chain[0].active:
+            chain.pop(0)
+            if chain:
+                chain[0].start(t)
+            continue
+        want = (votes or {}).get("RUDDER", 0.0) / 20.0 * 90.0
+        rate += (max(-limit, min(limit, want)) - rate) * min(1.0, dt / tau)
+        heading += rate * dt
+        x += speed * math.sin(math.radians(heading)) * dt
+        y += speed * math.cos(math.radians(heading)) * dt
+        track.append((x, y))
+        t += dt
+    return track
+
+
+def worst_on_legs(track: list[tuple[float, float]]) -> float:
+    """The largest |XTE| on legs 1-3 (y = -20, -40, -60, x 20..120) from 10 m along each to 5 m
+    before its end (the benchmark's ``--window issue``)."""
+    worst = 0.0
+    for y0, lo, hi in ((-20.0, 25.0, 110.0), (-40.0, 30.0, 115.0), (-60.0, 25.0, 110.0)):
+        on = [abs(y - y0) for x, y in track if lo <= x <= hi and abs(y - y0) < 5.0]
+        worst = max(worst, *on)
+    return worst
+
+
+def test_a_survey_at_5_m_s_comes_out_of_each_u_turn_on_the_next_leg() -> None:
+    """A kinematic boat at 5 m/s (Lead 7.5 m: each U-turn one half circle of 10 m)."""
+    task = survey(task_block, "7.5")
+    track = fly(task, 5.0)
+    assert not task.active
+    assert worst_on_legs(track) < 0.15
+    assert max(x for x, _ in track) == pytest.approx(130.0, abs=1.0)   # beyond the legs' ends
+
+
+def test_a_survey_at_2_m_s_turns_its_corners_on_arcs() -> None:
+    task = survey(task_block, "3")
+    track = fly(task, 2.0, max_t=400.0)
+    assert not task.active
+    assert worst_on_legs(track) < 0.15
+    assert max(x for x, _ in track) < 120.5                         # corners cut inside
+
+
+def test_chained_tracklines_fly_the_u_turn_as_a_survey_does(tblock: TBlock) -> None:
+    corners = ["0,0", "100,0", "100,-20", "0,-20"]
+    lines = [build_task(tblock("TrackLine", ("Name", f"T{k}"), ("P1", corners[k]),
+                               ("P2", corners[k + 1]), ("Radius", "1"), ("Lead", "7.5"),
+                               ("Thrust", "100"), ("TimeOut", "1000"),
+                               *((("StartFlag", f"F{k}"),) if k else ()),
+                               ("FinishFlag", f"F{k + 1}")))
+             for k in range(3)]
+    assert all(isinstance(t, TrackLine) for t in lines)
+    link_track_lines(lines)
+    track = fly(lines[0], 5.0, tasks=lines[1:], max_t=60.0)
+    assert max(x for x, _ in track) == pytest.approx(110.0, abs=1.0)   # the half circle
+    on_leg = [abs(y + 20.0) for x, y in track if 5.0 <= x <= 90.0 and y < -15.0]
+    assert on_leg and max(on_leg) < 0.15
+
+
+def test_the_tunes_planned_turn_matches_the_helms() -> None:
+    """``tuning`` may import only core: its restatement of the planned U-turn (which turns are
+    planned, where each line is left, the entry paths and how they are flown) is the helm's."""
+    from mavhelm.tuning import gains
+
+    assert (gains.FIT, gains.U_TURN_LEADS) == (turn_plan.FIT, turn_plan.U_TURN_LEADS)
+    speed, leg = 5.0, 600.0
+    lag = TURN_LAG_S * speed
+    leads = np.array([1.0, 3.0, 4.0, 5.0, 7.5, 10.0, 20.0, 25.0])
+    one, leave, entries = gains._u_turn_plan(leads, leg, lag)
+    corners = [(-leg, 0.0), (0.0, 0.0), (0.0, -gains.JOIN), (-leg, -gains.JOIN)]
+    rng = np.random.default_rng(1)
+    for i, lead in enumerate(leads):
+        assert one[i] == is_u_turn(*corners, float(lead))
+        helm_leave = [turn_plan.turn_in(None, *corners, float(lead), lag),
+                      turn_plan.turn_in(*corners, None, float(lead), lag)]
+        assert [leave[0][i], leave[1][i]] == pytest.approx(helm_leave)
+        helm_entries = [entry_path(None, *corners, float(lead)),
+                        entry_path(*corners, None, float(lead))]
+        for arcs, helm in zip(entries[1:], helm_entries, strict=True):
+            assert arcs is not None
+            if helm is None:
+                assert one[i]
+                continue
+            ours = Arc((arcs.sx[i], arcs.sy[i]), (arcs.ex[i], arcs.ey[i]),
+                       (arcs.cx[i], arcs.cy[i]), arcs.radius[i], arcs.heading_in[i],
+                       arcs.sweep[i])
+            assert _same_arc(ours, helm)
+            points = rng.uniform(-15.0, 15.0, (40, 2)) + np.array(helm.centre)
+            aim, s, xte = gains._arc_heading(_one(arcs, i, len(points)), points[:, 0],
+                                             points[:, 1], np.full(len(points), lead), lag)
+            for k, p in enumerate(points):
+                want_s, want_xte = helm.locate((p[0], p[1]))
+                want_aim, _ = helm.heading((p[0], p[1]), float(lead), lag)
+                assert (s[k], xte[k]) == pytest.approx((want_s, want_xte), abs=1e-6)
+                assert (aim[k] - want_aim + 180.0) % 360.0 - 180.0 == pytest.approx(0.0,
+                                                                                  abs=1e-6)
+
+
+def _same_arc(a: Arc, b: Arc) -> bool:
+    fields = ("start", "end", "centre")
+    return all(np.allclose(getattr(a, f), getattr(b, f)) for f in fields) and \
+        math.isclose(a.radius, b.radius) and math.isclose(a.sweep, b.sweep) and \
+        math.isclose(a.heading_in % 360.0, b.heading_in % 360.0)
+
+
+def _one(arcs, i: int, n: int):
+    """Candidate i's arc, repeated n times (one per sample point)."""
+    from mavhelm.tuning import gains
+    return gains._Arcs(*(np.full(n, getattr(arcs, f)[i]) for f in (
+        "sx", "sy", "ex", "ey", "cx", "cy", "radius", "heading_in", "sweep")))
+
+
+@pytest.mark.parametrize("where, planned", [((100.0, -2.0), True), ((60.0, -30.0), False)])
+def test_a_chained_trackline_started_far_from_its_planned_turn_flies_its_line(
+        tblock: TBlock, where, planned: bool) -> None:
+    first = build_task(tblock("TrackLine", ("Name", "A"), ("P1", "0,0"), ("P2", "100,0"),
+                              ("FinishFlag", "Next")))
+    then = build_task(tblock("TrackLine", ("Name", "B"), ("P1", "100,0"), ("P2", "100,-50"),
+                             ("StartFlag", "Next"), ("Lead", "5")))
+    assert isinstance(first, TrackLine) and isinstance(then, TrackLine)
+    link_track_lines([first, then])
+    first.flown = (((0.0, 0.0), (100.0, 0.0)),)     # the first line flown to its end
+    then.start(0.0)
+    then.step(nav_at(1.0, x=where[0], y=where[1], heading=180.0, speed=2.0), 1.0)
+    assert then.follower is not None
+    assert (then.follower.entry is not None) == planned
