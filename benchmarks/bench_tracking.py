@@ -87,7 +87,8 @@ Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.
 the wind 0.06 / 0.22 and 0.07 / 0.32; the motorboat-skid in calm water 0.09 / 0.45 and 0.05 /
 0.15, in the wind 0.09 / 0.35 and 0.08 / 0.29, then 0.07 / 0.29 and 0.09 / 0.43 (the 0.89
 above, 0.38 m RMS on one leg, did not repeat); the rover 0.04 / 0.08 and 0.04 / 0.11; the
-rover-skid 0.03 / 0.13 and 0.03 / 0.14. Tuned at 5 m/s with the loop gains searched from 1.0 /s rather than 0.7: motorboat
+rover-skid 0.03 / 0.13 and 0.03 / 0.14. Tuned at 5 m/s with the loop gains searched from
+1.0 /s rather than 0.7: motorboat
 0.05 / 0.16 calm, 0.06 / 0.21 wind; motorboat-skid 0.07–0.08 / 0.41–0.42 calm (two tunes), 0.08
 / 0.42 wind (each the worse of the two missions). Before the turns were planned
 (pursuit across each corner), the same hour, the same way (worse of the two missions):
