@@ -5,6 +5,8 @@ against the simulator's ground truth."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from tests.support.nav_sim_rig import DEAD_RECKONING, RANGES, start
@@ -170,5 +172,28 @@ def test_an_unobservable_setup_is_a_navigation_failure_and_ends_the_mission(tmp_
         thrust = [m.double for m in run.series("DESIRED_THRUST") if m.time > started[0].time]
         assert thrust and all(v == 0.0 for v in thrust)
         assert not [m for m in run.series("EKF_X") if m.time > failure[0].time]
+    finally:
+        run.close()
+
+
+def test_a_start_from_rest_on_ranges_alone_keeps_up_with_the_boat(tmp_path):
+    """Radio ranges, compass and gyro, no GPS, the boat starting from rest: while it gets
+    under way its speed changes as fast as its course may (``fusion.UNDER_WAY_TIME``), so the
+    filter keeps up with the acceleration. Measured over the first minute: 1.23 m RMS, 4.0 m
+    worst; with the cruising hull's gentle along-bow noise from the start, 3.71 m and 10.2 m
+    (the filter trailing the accelerating boat)."""
+    nav = (RANGES.replace("    SENSOR_XY          = GPS -> gps ~ 2\n", "")
+           .replace("X = GPS @ 2, EKF @ 2", "X = EKF @ 2")
+           .replace("Y = GPS @ 2, EKF @ 2", "Y = EKF @ 2"))
+    run = start(nav, ranging="radio", dvl=False, tmp_path=tmp_path)
+    try:
+        handed = run.run.hand_over()
+        run.run.run_for(60.0)
+        errors = [e for t, e in run.errors("NAV", handed, handed + 60.0)]
+        worst, rms = max(errors), math.sqrt(sum(e * e for e in errors) / len(errors))
+        print(f"\nranges alone, from rest: NAV RMS {rms:.2f} m, worst {worst:.2f} m over the "
+              "first minute under way")
+        assert len(errors) > 300
+        assert worst <= 5.0 and rms <= 1.5
     finally:
         run.close()
