@@ -9,15 +9,18 @@ State, in this order (indices are the ``I_*`` constants)::
     [Z, Ż]        height of the vehicle's origin (m, up; −depth at zero tide) and its rate, if
                   ``estimate_z`` (an underwater vehicle, or a depth sensor declared)
     [b]           hidden: heading bias of the orientation sensor (rad), if ``estimate_yaw_bias``
+    [ḃ]           hidden: the rate the bias drifts at (rad/s), if ``estimate_yaw_drift`` too
     [tide]        hidden: height of the sea surface above the Z = 0 plane (m), if
                   ``estimate_tide``; depth = tide − Z (spec 2.3.1)
+    [k]           hidden: scale error of the body-velocity speeds, if ``estimate_speed_scale``
     [s]           hidden: range scale error shared by all beacons, if ``estimate_range_scale``
                   and there are beacons
     [o_1 … o_n]   hidden: one range offset per beacon (m), in the order the beacons are given
 
 Model (spec 2.2.3): constant velocity in X, Y, Z and H, uncoupled, driven by white
 acceleration whose strength is the spec's ``EKF_*_DYNAMICS`` setting 0–10 (see
-:class:`EKFConfig`); the hidden states are random walks (constant plus a slow drift). A static
+:class:`EKFConfig`); the hidden states are random walks (constant plus a slow drift), the
+heading bias with its drift rate a constant-velocity pair. A static
 vehicle (spec 2.2.2, ``mobile=False``) has its rate states held at zero and its pose a random
 walk instead.
 
