@@ -118,8 +118,9 @@ at 67 asked); in a survey's half circle (about 27 deg/s asked) the rate swings 1
 from one 0.1 s sample to the next, and the integral the turn winds up leaves the boat turning
 2–3 deg/s the other way for 2 s after it, while the helm asks +1 to +4. The fitted lag cannot
 show this: the manoeuvre's commands saturate (K only shows in the ramps, where it trades with
-the acceleration limit: it fits 0.93–1.2), and the recorded samples carry the helm tick's
-time (0.1 s; at 170 deg/s² that alone is up to 17 deg/s of residual). Measured and not taken:
+the acceleration limit: it fits 0.93–1.2), and the recorded samples carry the time the
+companion read them, in batches (two 0–0.03 s apart, then 0.2 s on), not the autopilot's: at
+170 deg/s² a 0.1 s error alone is 17 deg/s of residual. Measured and not taken:
 the model with Rover's clip and ramp on the asked rate, the gain K after them and the
 integrator (bounded), fitted from the same recording: K 1.36, clip 61 deg/s, ramp 124 deg/s²,
 integrator 0.31 /s within ±5 deg/s (close to STER), residual still 9.7 deg/s; it predicted the
