@@ -326,6 +326,40 @@ class Figures:
     """The truth measured: (t, x east, y north)."""
 
 
+def _survey_start(track: list[tuple[float, float, float]], settle_xte: float
+                  ) -> tuple[float | None, int]:
+    """(time, index) of the first truth sample on leg 0's side of its start and within
+    ``settle_xte`` of it; (None, 0) if none is."""
+    p1, p2 = LEGS[0]
+    for s, (t, x, y) in enumerate(track):
+        along, xte = track_position(p1, p2, (x, y))
+        if along >= 0.0 and abs(xte) < settle_xte:
+            return t, s
+    return None, 0
+
+
+def _leg_xtes(track: list[tuple[float, float, float]], leg: tuple[Point2, Point2], cursor: int,
+              settle_xte: float) -> tuple[list[float] | None, int]:
+    """The cross-track errors in one leg's window from ``cursor`` on, and where it ends (None
+    and ``cursor`` if the window is never entered)."""
+    p1, p2 = leg
+    length = math.dist(p1, p2)
+    first = next((s for s in range(cursor, len(track))
+                  if SETTLE_ALONG <= (tp := track_position(p1, p2, track[s][1:]))[0]
+                  <= length - END_MARGIN and abs(tp[1]) <= settle_xte), None)
+    if first is None:
+        return None, cursor
+    xtes = []
+    s = first
+    while s < len(track):
+        along, xte = track_position(p1, p2, track[s][1:])
+        if along > length - END_MARGIN:
+            break
+        xtes.append(xte)
+        s += 1
+    return xtes, s
+
+
 def measure(track: list[tuple[float, float, float]], settle_xte: float = SETTLE_XTE) -> Figures:
     """Per-leg and overall XTE and the survey time from truth samples (t, x east, y north) in
     time order. Each leg is looked for after the previous one's window. ``settle_xte=inf`` is
@@ -333,31 +367,12 @@ def measure(track: list[tuple[float, float, float]], settle_xte: float = SETTLE_
     it counts the swing after each turn onto a leg."""
     fig = Figures(track=track)
     pooled: list[float] = []
-    start_t = end_t = None
-    cursor = 0
-    p1, p2 = LEGS[0]
-    for s, (t, x, y) in enumerate(track):
-        along, xte = track_position(p1, p2, (x, y))
-        if along >= 0.0 and abs(xte) < settle_xte:
-            start_t, cursor = t, s
-            break
-    for p1, p2 in LEGS:
-        length = math.dist(p1, p2)
-        first = next((s for s in range(cursor, len(track))
-                      if SETTLE_ALONG <= (tp := track_position(p1, p2, track[s][1:]))[0]
-                      <= length - END_MARGIN and abs(tp[1]) <= settle_xte), None)
-        if first is None:
+    start_t, cursor = _survey_start(track, settle_xte)
+    for leg in LEGS:
+        xtes, cursor = _leg_xtes(track, leg, cursor, settle_xte)
+        if xtes is None:
             fig.legs.append(None)
             continue
-        xtes = []
-        s = first
-        while s < len(track):
-            along, xte = track_position(p1, p2, track[s][1:])
-            if along > length - END_MARGIN:
-                break
-            xtes.append(xte)
-            s += 1
-        cursor = s
         fig.legs.append((math.sqrt(sum(e * e for e in xtes) / len(xtes)),
                          max(abs(e) for e in xtes), len(xtes)))
         pooled += xtes
