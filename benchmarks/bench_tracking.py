@@ -80,6 +80,8 @@ than the join it replaces), the turns planned (``mavhelm/tasks/turn_plan.py``):
     motorboat       5        wind     tuned     0.06 / 0.25  0.06 / 0.19
     motorboat-skid  5        calm     tuned     0.07 / 0.38  0.08 / 0.38
     motorboat-skid  5        wind     tuned     0.08 / 0.33  0.08 / 0.32
+    rover           5        calm     tuned     0.05 / 0.18  0.05 / 0.18
+    rover-skid      5        calm     tuned     0.04 / 0.19  0.04 / 0.19
 
 Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.17 and 0.04 /
 0.17, and earlier 0.04 / 0.14 and 0.06 / 0.52 (one U-turn: the companion's data stopped for
@@ -95,14 +97,15 @@ rover-skid 0.03 / 0.13 and 0.03 / 0.14. Tuned at 5 m/s with the loop gains searc
 motorboat 5 m/s 0.06 / 0.30 calm, 0.06 / 0.49 wind; motorboat-skid 0.10 / 0.74 calm, 0.09 /
 0.59 wind; rover 0.08 / 0.52; rover-skid 0.07 / 0.50 (the rows measured in an earlier session
 at a load of about 3: motorboat 0.55–0.77, motorboat-skid 0.52–1.06, rover-skid 0.96). Tuned
-at 2 m/s, and the rovers tuned at 5 m/s, were measured before the turns were planned and not
-again: 0.01–0.02 / 0.03–0.15 at 2 m/s on every model, 0.03–0.04 / 0.16–0.21 for the rovers at
-5 m/s.
+at 2 m/s was measured before the turns were planned and not again: 0.01–0.02 / 0.03–0.15 on
+every model; the rovers tuned at 5 m/s then: 0.03–0.04 / 0.16–0.21.
 
 (``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
 the defaults' (``mavhelm/tuning/gains.py``, which flies the planned turn as the helm does), a
 Lead in metres for the survey's speed. At 5 m/s it wrote MaxTurnRate 75–91, YAW_PID_KP
-0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s); on the
+0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s),
+MaxTurnRate 69, KP 0.71, KD 0, Lead 6.3 for the rover (4.7 deg/s), MaxTurnRate 82, KP 0.64,
+KD 0.19, Lead 7.3 for the rover-skid (7.8 deg/s: close to the rule below); on the
 motorboat-skid (residual 11.2–11.3 deg/s, more than ``TRUSTED_FIT_RMS`` 8) it keeps the
 defaults and says why, so its tuned rows (one run each, calm and wind) are the defaults flown
 again (the defaults flown alone the same hour: Survey 0.07 / 0.33 calm); the motorboat's calm
