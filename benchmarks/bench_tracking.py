@@ -188,6 +188,7 @@ from tests.support.ardupilot import (
     CompanionProcess,
     RealOperator,
     RealSitl,
+    SitlPorts,
     ardupilot_binary,
 )
 from tests.support.mission import NAV_AP_FALLBACK
@@ -278,7 +279,7 @@ def chain_tasks() -> str:
         points += [start, end]
     blocks = []
     for k in range(len(points) - 1):
-        start = f"        StartFlag  = Line{k}\n" if k else ""
+        start_flag = f"        StartFlag  = Line{k}\n" if k else ""
         finish = f"Line{k + 1}" if k < len(points) - 2 else "EndMission"
         (x1, y1), (x2, y2) = (tuple(round(v, 6) + 0.0 for v in p)
                               for p in (points[k], points[k + 1]))
@@ -292,7 +293,7 @@ def chain_tasks() -> str:
         {{lead}}
         Thrust     = 100
         TimeOut    = 120
-{start}        FinishFlag = {finish}
+{start_flag}        FinishFlag = {finish}
     }}}}
 """)
     return "".join(blocks)
@@ -412,6 +413,13 @@ CALM: dict[str, float] = {"WP_SPEED": 2, "SIM_WIND_SPD": 0, "SIM_WAVE_ENABLE": 0
 WIND: dict[str, float] = {"WP_SPEED": 2}
 
 
+def ports_of(sitl: RealSitl) -> SitlPorts:
+    """The ports of a started SITL (``RealSitl.ports`` is None only before it starts)."""
+    if sitl.ports is None:
+        raise RuntimeError("the SITL has not started")
+    return sitl.ports
+
+
 def ask_for_truth(op: RealOperator) -> None:
     """Telemetry at 4 Hz, and SIMSTATE at TRUTH_HZ (autopilot hertz) with ATTITUDE at the same
     rate (SIMSTATE has no time stamp: it takes the time_boot_ms of the message before it),
@@ -439,10 +447,10 @@ def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
     origin = Origin(LAT0, LON0)
     with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
                   home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
-            RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
+            RealOperator(ports_of(sitl).serial0, heartbeat_s=1.0 / SPEEDUP) as op:
         ask_for_truth(op)
-        sitl.wait_listening(sitl.ports.serial1)
-        comp = CompanionProcess(mission, sitl.ports.serial1, folder / "companion")
+        sitl.wait_listening(ports_of(sitl).serial1)
+        comp = CompanionProcess(mission, ports_of(sitl).serial1, folder / "companion")
         try:
             op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / SPEEDUP)
             online = op.handed_over_wall or 0.0
@@ -483,7 +491,7 @@ def tune_real(binary: Path, folder: Path, params: dict[str, float], model: str) 
     tuned = folder / "tuned.moos"
     with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
                   home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
-            RealOperator(sitl.ports.serial0, heartbeat_s=1.0 / SPEEDUP) as op:
+            RealOperator(ports_of(sitl).serial0, heartbeat_s=1.0 / SPEEDUP) as op:
         op.wait_until(lambda: op.heartbeats > 0, 10.0, "the autopilot's first HEARTBEAT")
         assert sitl.ports is not None
         sitl.wait_listening(sitl.ports.serial1)
