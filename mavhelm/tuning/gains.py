@@ -390,11 +390,13 @@ def score(p: Prediction) -> float:
 
 
 def design(yaw: YawModel, *, max_rudder: float, app_tick: float, course: Course | None = None,
-           baseline: Gains | None = None) -> tuple[Gains, Prediction, Prediction | None]:
+           baseline: Gains | None = None, search: bool = True
+           ) -> tuple[Gains, Prediction, Prediction | None]:
     """The best candidate predicted no worse than ``baseline`` (which is kept if none is):
-    (gains, their prediction, the baseline's prediction)."""
+    (gains, their prediction, the baseline's prediction). ``search`` False keeps the
+    baseline (a model whose predictions are not trusted), predicted all the same."""
     course = course or Course(None)
-    pool = candidates(yaw, max_rudder)
+    pool = candidates(yaw, max_rudder) if search or baseline is None else []
     if baseline is not None:
         baseline = replace(baseline, loop_gain=baseline.yaw_kp * yaw.gain
                            * baseline.max_turn_rate / max_rudder)
