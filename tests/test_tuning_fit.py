@@ -49,6 +49,8 @@ def test_a_recording_without_excitation_is_refused():
 
 def test_gains_follow_the_model():
     tuning = identify(vehicle(), max_rudder=20.0, app_tick=10.0, cruise_thrust=80.0)
+    # a good fit is trusted and searched (a poor one keeps the defaults: test_tuning_trust)
+    assert tuning.trusted and not any("not trusted" in line for line in tuning.report())
     g = tuning.gains
     assert g.max_turn_rate == pytest.approx(40.0, abs=2.0)
     assert 0.0 <= g.yaw_kd <= KD_RATIOS[-1] * g.yaw_kp + 1e-3  # searched: test_tuning_design
