@@ -180,19 +180,22 @@ class ReplayResult:
             lines += [f"  {d.t - self.start:8.1f} s  {d}" for d in shown]
             if len(fusion.decisions) > len(shown):
                 lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
-            final = self.final
-            if final is not None:
-                learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
-                if final.yaw_drift:
-                    learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
-                if final.speed_scale:
-                    learned.append(f"speed scale {final.speed_scale:+.4f}")
-                learned.append(f"range scale {final.range_scale:+.4f}")
-                learned += [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
-                lines.append("learned: " + ", ".join(learned))
+            if self.final is not None:
+                lines.append("learned: " + ", ".join(_learned(self.final)))
         if self.failure:
             lines.append(f"NAVIGATION FAILURE: {self.failure}")
         return lines
+
+
+def _learned(final: Estimate) -> list[str]:
+    """The hidden states the filter ended with, as the report prints them."""
+    learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
+    if final.yaw_drift:
+        learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
+    if final.speed_scale:
+        learned.append(f"speed scale {final.speed_scale:+.4f}")
+    learned.append(f"range scale {final.range_scale:+.4f}")
+    return learned + [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
 
 
 def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
