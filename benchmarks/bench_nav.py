@@ -155,6 +155,16 @@ def _extra_tasks() -> str:
     return "".join(boxes + headings)
 
 
+def use_twenty_tasks() -> None:
+    """Give the simulator tests' box patrol (``nav_sim_rig.BOX``) the ``EXTRA_TASKS``, once:
+    the mission of the tick figures (here and ``bench_tick_deployed``)."""
+    from tests.support import nav_sim_rig
+
+    extra = _extra_tasks().replace("%", "%%")
+    if not nav_sim_rig.BOX.endswith(extra):
+        nav_sim_rig.BOX = nav_sim_rig.BOX + extra
+
+
 def tick_with_ekf() -> tuple[float, float]:
     """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
     20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick (wall
@@ -162,8 +172,7 @@ def tick_with_ekf() -> tuple[float, float]:
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
-    nav_sim_rig.BOX = nav_sim_rig.BOX + _extra_tasks().replace("%", "%%")
-
+    use_twenty_tasks()
     with tempfile.TemporaryDirectory() as folder:
         run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))
         try:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import re
-import socket
 import subprocess
 import sys
 import tempfile
@@ -38,26 +37,16 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.bench_nav import _extra_tasks
+from benchmarks.bench_nav import use_twenty_tasks
 from mavhelm.companion.companion import Companion
 from mavhelm.core.clock import WallClock
 from mavhelm.core.mission import parse_mission
 from tests.support import nav_sim_rig
 from tests.support.nav_sim_rig import DEAD_RECKONING, LAT, LON, SERIAL
+from tests.support.ports import free_port
 
 SETTLE_S = 20.0
 """Ticks before the hand-over and this long after it are not counted (start-up, arming)."""
-
-
-def _free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    try:
-        for s in socks:
-            s.bind(("127.0.0.1", 0))
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
 
 
 def _operator(url: str) -> None:
@@ -98,7 +87,7 @@ def _start_simulator(ports: list[int]) -> tuple[subprocess.Popen, dict[str, str]
 
 
 def measure(seconds: float) -> None:
-    ports = _free_ports(3)
+    ports = [free_port() for _ in range(3)]
     sim, ptys = _start_simulator(ports)
     operator = subprocess.Popen([sys.executable, "-m", "benchmarks.bench_tick_deployed",
                                  "--operator", f"tcp:127.0.0.1:{ports[1]}"],
@@ -109,7 +98,7 @@ def measure(seconds: float) -> None:
                                        sentences=sentences)
                          for label, name, sentences in (("heading", "HDG", "HDT"),
                                                         ("dvl", "DVL", "PMVHDVL")))
-        nav_sim_rig.BOX = nav_sim_rig.BOX + _extra_tasks().replace("%", "%%")
+        use_twenty_tasks()
         text = nav_sim_rig.mission_text(serial, DEAD_RECKONING).replace(
             "tcp:127.0.0.1:5760", f"tcp:127.0.0.1:{ports[0]}")
         with tempfile.TemporaryDirectory() as folder:
