@@ -4,13 +4,20 @@ The log is an ``.alog`` (mavhelm's own, or a converted data set) or a MAVLink ``
 (MAVProxy, QGroundControl), which goes through the mission's MAVLink bridge first so the
 navigator sees what it would have seen live. With a truth in the log (``TRUTH_X``/``TRUTH_Y``:
 the SITL's SIMSTATE, or a data set's ground truth) the report scores each position source.
-The .olog/.xlog are written beside the log unless ``--no-nav-log``.
+The .olog/.xlog are written beside the log unless ``--no-nav-log``. The fault runs
+(``--fault``) are independent replays of the same log, so they run in parallel processes
+(``--jobs``, all cores by default) after the log as recorded, which runs first in this process
+so that a bad mission or log is said once, as itself; the reports print in their order.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import time
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from mavhelm.companion.alog import read_alog
@@ -34,6 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also replay the log with this fault made on it (repeatable; "
                              "all: every fault that applies), each with its own report")
     parser.add_argument("--seed", type=int, default=1, help="seed of the faults (default 1)")
+    parser.add_argument("--jobs", type=int, default=None,
+                        help="fault runs replayed at once (default: the machine's cores)")
 
 
 def replay_files(mission_path: str | Path, log_path: str | Path, *, period: float = 0.1,
@@ -74,21 +83,53 @@ def run(args: argparse.Namespace) -> int:
     if not args.period > 0:
         print("mavhelm nav replay: --period must be > 0", flush=True)
         return 2
-    faults = _faults(args)
-    worst = 0
-    for fault in faults:
-        if fault is not None:
-            print(f"\n== fault {fault} ==")
+    if args.jobs is not None and args.jobs < 1:
+        print("mavhelm nav replay: --jobs must be at least 1", flush=True)
+        return 2
+    first, *faults = _faults(args)
+    lines, failed = _replay_report((args, first))
+    _print_run(first, lines)
+    worst = int(failed)
+    jobs = min(args.jobs or os.cpu_count() or 1, len(faults))
+    with contextlib.ExitStack() as stack:
+        reports: Iterator[tuple[list[str], bool]]
+        if jobs > 1:
+            pool = ProcessPoolExecutor(max_workers=jobs)
+            stack.callback(pool.shutdown, cancel_futures=True)
+            reports = pool.map(_replay_report, [(args, f) for f in faults])
+        else:
+            reports = map(_replay_report, [(args, f) for f in faults])
+        for fault, (lines, failed) in zip(faults, reports, strict=True):
+            _print_run(fault, lines)
+            worst = max(worst, int(failed))
+    return worst
+
+
+def _print_run(fault: str | None, lines: list[str]) -> None:
+    if fault is not None:
+        print(f"\n== fault {fault} ==")
+    for line in lines:
+        print(line, flush=True)
+
+
+def _replay_report(job: tuple[argparse.Namespace, str | None]) -> tuple[list[str], bool]:
+    """One run's report lines and whether the navigator failed in it. A fault run (in a worker
+    process) reports an error as a line rather than raising: the log and mission were already
+    read once without one."""
+    args, fault = job
+    try:
         result, seconds = replay_files(args.mission, args.log, period=args.period,
                                        nav_log=args.nav_log,
                                        write_nav_log=not args.no_nav_log, fault=fault,
                                        seed=args.seed)
-        for line in result.report():
-            print(line)
-        speedup = result.span / seconds if seconds > 0 else float("inf")
-        print(f"replay took {seconds:.2f} s of wall time ({speedup:.0f}x the log's duration)")
-        worst = max(worst, 0 if result.failure is None else 1)
-    return worst
+    except Exception as exc:  # noqa: BLE001 - a worker's error must reach the report whole
+        if fault is None:
+            raise
+        return [f"mavhelm nav replay: the {fault} run failed: {exc}"], True
+    speedup = result.span / seconds if seconds > 0 else float("inf")
+    return ([*result.report(),
+             f"replay took {seconds:.2f} s of wall time ({speedup:.0f}x the log's duration)"],
+            result.failure is not None)
 
 
 def _faults(args: argparse.Namespace) -> list[str | None]:

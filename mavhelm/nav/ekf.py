@@ -104,11 +104,9 @@ from dataclasses import dataclass, field, replace
 from typing import Final, NamedTuple
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 from scipy.linalg.lapack import dgesv, dpotrf
-from scipy.stats import chi2
 
-from mavhelm.nav.chi_square import chi2_logsf
+from mavhelm.nav.chi_square import chi2_logsf, chi2_ppf
 from mavhelm.nav.settings import (
     EKF_BEACON_OFFSETS,
     EKF_GATE,
@@ -540,6 +538,16 @@ class EKF:
     publish and clear.
     """
 
+    @staticmethod
+    def prepare() -> type:
+        """filterpy's ``ExtendedKalmanFilter``, imported on first use: filterpy.kalman brings
+        scipy.stats, a second of start-up for every command that never builds a filter (the
+        simulator, the consoles, ``--help``). A navigator calls this when its mission is
+        loaded, so the tick that boots the first filter does not pay for the import."""
+        from filterpy.kalman import ExtendedKalmanFilter
+
+        return ExtendedKalmanFilter
+
     def __init__(self, t: float, x: float, y: float, yaw: float = 0.0, *,
                  beacons: Iterable[Beacon] = (), config: EKFConfig | None = None,
                  sigma_xy: float | None = None, sigma_yaw: float | None = None) -> None:
@@ -568,7 +576,7 @@ class EKF:
         first_offset = n + (1 if self.i_scale is not None else 0)
         self._offset_index = {name: first_offset + k for k, name in enumerate(self.beacons)}
         self.dim = first_offset + len(self.beacons)
-        self.kf = ExtendedKalmanFilter(dim_x=self.dim, dim_z=1)
+        self.kf = EKF.prepare()(dim_x=self.dim, dim_z=1)
         self.t = float(t)
         self.warnings: list[str] = []
         self.failure: NavigationFailure | None = None
@@ -898,7 +906,7 @@ class EKF:
     def _gate(self, dof: int) -> float:
         gate = self._gates.get(dof)
         if gate is None:
-            gate = self._gates[dof] = float(chi2.ppf(self.config.gate_probability, dof))
+            gate = self._gates[dof] = float(chi2_ppf(self.config.gate_probability, dof))
         return gate
 
     def _apply(self, x: list[float], r: np.ndarray, idx: np.ndarray | None, y: np.ndarray,

@@ -181,6 +181,7 @@ class Fusion:
 
     def __init__(self, config: FusionConfig) -> None:
         self.config = config
+        EKF.prepare()
         beacons = list(config.beacons)
         self.lsq: LSQ | None = (LSQ(beacons, window=config.lsq_window,
                                     estimate_offset=config.lsq_offset)

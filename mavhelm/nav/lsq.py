@@ -53,9 +53,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Final
 
-from scipy.stats import chi2
-
-from mavhelm.nav.chi_square import chi2_logsf
+from mavhelm.nav.chi_square import chi2_logsf, chi2_ppf
 from mavhelm.nav.ekf import Beacon, Depth, Position, Range, Yaw
 from mavhelm.nav.settings import LSQ_WINDOW
 
@@ -616,5 +614,5 @@ class LSQ:
             return True
         gate = self._gates.get(fix.dof)
         if gate is None:
-            gate = self._gates[fix.dof] = float(chi2.ppf(self.gate_probability, fix.dof))
+            gate = self._gates[fix.dof] = float(chi2_ppf(self.gate_probability, fix.dof))
         return fix.chi2 <= gate

@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 from typing import Final
 
 import numpy as np
-from scipy.stats import chi2
 
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import Block
+from mavhelm.nav.chi_square import chi2_ppf
 from mavhelm.nav.ekf import EKF, Estimate
 from mavhelm.nav.filter_safety import DECISION_KINDS
 from mavhelm.nav.navigator import Navigator
@@ -63,7 +63,7 @@ class Track:
     y: list[float] = field(default_factory=list)
 
 
-NEES_BAND: Final = (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2)))
+NEES_BAND: Final = (float(chi2_ppf(0.025, 2)), float(chi2_ppf(0.975, 2)))
 """The two-sided 95 % band of a 2-dof χ²: where a position error's NEES falls 95 % of the
 time when the filter's covariance tells the truth about it."""
 
