@@ -332,7 +332,8 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
         window = on_leg & (along >= LEG_WINDOW[0]) & (along <= LEG_WINDOW[1])
         swing = np.where(window, np.maximum(swing, np.abs(xte)), swing)
         last_big = np.where(on_leg & (np.abs(xte) > LINE_TOLERANCE), t, last_big)
-        settle = np.where(on_leg & (along <= LEG_WINDOW[1]), last_big - leg_start, settle)
+        settle = np.where(on_leg & (along <= LEG_WINDOW[1]),
+                          np.maximum(last_big - leg_start, 0.0), settle)
         loop.step(desired, t)
         track.append(loop.psi.copy())
         heading = np.radians(track.pop(0))
