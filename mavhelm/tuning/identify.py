@@ -19,9 +19,10 @@ from mavhelm.tuning.model import (
 
 TRUSTED_FIT_RMS = 8.0
 """Above this residual (deg/s) the turn-rate model is not trusted to choose gains, and the
-defaults are kept. The real SITL motorboat fits within 5–7 deg/s and its tuned gains fly
+defaults are kept. The real SITL motorboat fits within 4–6 deg/s and its tuned gains fly
 about as predicted (0.13–0.25 m after a U-turn at 5 m/s against 0.10–0.11); the
-motorboat-skid at 5 m/s leaves 10–14: it turns 1.3–1.45 times the rate Rover asks of it (its
+motorboat-skid at 5 m/s leaves 11 (the samples placed when the autopilot took them: the
+timing is not what is missing): it turns 1.3–1.45 times the rate Rover asks of it (its
 dataflash log's STER: 87–97 deg/s where 67 was asked) until the autopilot's rate integrator
 pulls it back over about a second, and the integral a survey's U-turn winds up turns it 2–3
 deg/s the other way for 2 s after the turn. The fitted model has neither, so it predicted its
