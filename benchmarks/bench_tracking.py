@@ -111,7 +111,9 @@ turn onto leg 2 (its swing 10 m along it).
 (``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
 the defaults' (``mavhelm/tuning/gains.py``, which flies the planned turn as the helm does), a
 Lead in metres for the survey's speed. At 5 m/s it wrote MaxTurnRate 75–91, YAW_PID_KP
-0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s),
+0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s; with
+the samples placed at the autopilot's time, 2026-12-02, residual 3.3, MaxTurnRate 67, KP 0.68,
+KD 0, Lead 6.3, flown in calm water 0.06 / 0.24 and 0.06 / 0.23, one run),
 MaxTurnRate 69, KP 0.71, KD 0, Lead 6.3 for the rover (4.7 deg/s), MaxTurnRate 82, KP 0.64,
 KD 0.19, Lead 7.3 for the rover-skid (7.8 deg/s: close to the rule below); on the
 motorboat-skid (residual 11.2–11.3 deg/s, more than ``TRUSTED_FIT_RMS`` 8) it keeps the
