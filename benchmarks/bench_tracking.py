@@ -82,6 +82,8 @@ than the join it replaces), the turns planned (``mavhelm/tasks/turn_plan.py``):
     motorboat-skid  5        wind     tuned     0.08 / 0.33  0.08 / 0.32
     rover           5        calm     tuned     0.05 / 0.18  0.05 / 0.18
     rover-skid      5        calm     tuned     0.04 / 0.19  0.04 / 0.19
+    motorboat       2        calm     tuned     0.01 / 0.11  0.01 / 0.09
+    motorboat-skid  2        calm     tuned     0.01 / 0.06  0.01 / 0.08
 
 Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.17 and 0.04 /
 0.17, and earlier 0.04 / 0.14 and 0.06 / 0.52 (one U-turn: the companion's data stopped for
@@ -97,13 +99,21 @@ rover-skid 0.03 / 0.13 and 0.03 / 0.14. Tuned at 5 m/s with the loop gains searc
 motorboat 5 m/s 0.06 / 0.30 calm, 0.06 / 0.49 wind; motorboat-skid 0.10 / 0.74 calm, 0.09 /
 0.59 wind; rover 0.08 / 0.52; rover-skid 0.07 / 0.50 (the rows measured in an earlier session
 at a load of about 3: motorboat 0.55–0.77, motorboat-skid 0.52–1.06, rover-skid 0.96). Tuned
-at 2 m/s was measured before the turns were planned and not again: 0.01–0.02 / 0.03–0.15 on
-every model; the rovers tuned at 5 m/s then: 0.03–0.04 / 0.16–0.21.
+at 2 m/s before the turns were planned: 0.01–0.02 / 0.03–0.15 on every model; the rovers tuned
+at 5 m/s then: 0.03–0.04 / 0.16–0.21. With the turns planned (2026-12-02, calm, one run each,
+the 2 m/s rows above) the tune kept the defaults on both boats (fit residual 5.1 and 6.1 deg/s:
+no candidate predicted at least as good on every figure, the defaults' U-turn already 0.02 m);
+an earlier motorboat tune the same hour wrote MaxTurnRate 90, KP 0.62, KD 0.12, Lead 2.5 and
+flew 0.01 / 0.07 on both missions, and an earlier skid-boat run (defaults kept) 0.03 / 0.31
+and 0.02 / 0.33, at a load of 2, the companion's ticks 0.3–0.5 s of vehicle time apart at the
+turn onto leg 2 (its swing 10 m along it).
 
 (``tuned``: by ``mavhelm tune`` in that run, its settings searched on the fitted model against
 the defaults' (``mavhelm/tuning/gains.py``, which flies the planned turn as the helm does), a
 Lead in metres for the survey's speed. At 5 m/s it wrote MaxTurnRate 75–91, YAW_PID_KP
-0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s),
+0.52–0.72, KD 0.07–0.10, Lead 6.3 for the motorboat (turn-rate fit residual 6.2 deg/s; with
+the samples placed at the autopilot's time, 2026-12-02, residual 3.3, MaxTurnRate 67, KP 0.68,
+KD 0, Lead 6.3, flown in calm water 0.06 / 0.24 and 0.06 / 0.23, one run),
 MaxTurnRate 69, KP 0.71, KD 0, Lead 6.3 for the rover (4.7 deg/s), MaxTurnRate 82, KP 0.64,
 KD 0.19, Lead 7.3 for the rover-skid (7.8 deg/s: close to the rule below); on the
 motorboat-skid (residual 11.2–11.3 deg/s, more than ``TRUSTED_FIT_RMS`` 8) it keeps the
@@ -121,9 +131,20 @@ at 67 asked); in a survey's half circle (about 27 deg/s asked) the rate swings 1
 from one 0.1 s sample to the next, and the integral the turn winds up leaves the boat turning
 2–3 deg/s the other way for 2 s after it, while the helm asks +1 to +4. The fitted lag cannot
 show this: the manoeuvre's commands saturate (K only shows in the ramps, where it trades with
-the acceleration limit: it fits 0.93–1.2), and the recorded samples carry the time the
-companion read them, in batches (two 0–0.03 s apart, then 0.2 s on), not the autopilot's: at
-170 deg/s² a 0.1 s error alone is 17 deg/s of residual. Measured and not taken:
+the acceleration limit: it fits 0.93–1.2). The timing is not what is left: the turn-rate
+samples are placed when the autopilot took them (the bridge's ``INS_AGE``, up to 0.07 s at
+``--speedup 10``; the loop's delay counts their age when the helm steers on them, 0.04 s), and
+against the SITL's dataflash log they match its gyro within 0.09 deg/s RMS at one clock
+offset, each command reaching Rover's asked rate within STER's 0.1 s. On the same recordings
+that took the fit residual from 14.8 to 11.3 deg/s (motorboat-skid) and from 8.3 to 4.1
+(motorboat) at 5 m/s; run by run (2026-12-02, one each), before 10.7 and 5.3, after 11.3 and
+4.1. Given Rover's asked rate exactly (STER), a lag fits the skid boat's rate with 13.9 deg/s
+left, a lag and an integrator with 7.8: it turns 1.3 times the clipped 67 deg/s asked (86–91),
+ramps at up to 170 deg/s² where Rover ramps at 120, and on a reversal drops onto Rover's ramp,
+which starts from 67, not from the boat's 90 (a fitted model ramping the boat's own rate sees
+that as 0.1–0.13 s of timing, 15–22 deg/s). Measured and not taken (placed samples): the clip
+and ramp on the asked rate with the gain after them (11.4 deg/s), that clip scaled by the
+speed as Rover's lateral-acceleration limit is (10.9). Measured and not taken earlier:
 the model with Rover's clip and ramp on the asked rate, the gain K after them and the
 integrator (bounded), fitted from the same recording: K 1.36, clip 61 deg/s, ramp 124 deg/s²,
 integrator 0.31 /s within ±5 deg/s (close to STER), residual still 9.7 deg/s; it predicted the

@@ -5,7 +5,8 @@ The manoeuvre is a mission of its own (``mavhelm.tuning.manoeuvre``) run by an o
 companion, so the operator hands over in GUIDED as for any mission, every demand passes the
 bridge's guards, and the steps show as tasks. This module adds one app, ``pTune``, that
 
-- records what was sent and what came back (``mavhelm.tuning.identify.Recording``);
+- records what was sent and what came back (``mavhelm.tuning.identify.Recording``), each
+  turn rate placed when the autopilot took it (``INS_AGE`` earlier than it was heard);
 - refuses to go on if the vehicle is outside the box at its first fix;
 - posts ``TuneStop`` (the manoeuvre's EndMission: thrust 0, hand back in HOLD) as soon as the
   position a look-ahead ahead would be outside the box;
@@ -51,8 +52,12 @@ RECORDED = {"AP_CMD_YAW_RATE": ("turn_command", math.degrees),
 """Bus variable → the Recording's list and the conversion: turn rates to deg/s clockwise,
 thrust to percent."""
 
+AGE = "INS_AGE"
+"""How late the ATTITUDE that carried the turn rate was heard (s): the sample is placed that
+much earlier, when the autopilot took it (``mavhelm.companion.bridge.lateness``)."""
+
 WATCHED = frozenset({*RECORDED, "NAV_X", "NAV_Y", "NAV_HEADING", "HELM_STATE", "AP_MODE",
-                     "MISSION_ENDED"})
+                     "MISSION_ENDED", AGE})
 
 
 @dataclass
@@ -72,6 +77,8 @@ class TuneWatch(App):
     _y: float | None = None
     _heading: float | None = None
     _speed: float = 0.0
+    _age: tuple[float, float] | None = None
+    """(stamp, INS_AGE) of the latest ATTITUDE: it goes with the turn rate of that stamp."""
 
     name = "pTune"
 
@@ -110,9 +117,18 @@ class TuneWatch(App):
             self._heading = v
         elif m.name in ("NAV_SPEED", "AP_SPEED"):
             self._speed = v
+        elif m.name == AGE:
+            self._age = (t, v)
         if m.name in RECORDED and self.online_once and not self.ended:
-            series, convert = RECORDED[m.name]
-            getattr(self.recording, series).append((t, convert(v)))
+            self._record(m.name, t, v)
+
+    def _record(self, name: str, t: float, v: float) -> None:
+        series, convert = RECORDED[name]
+        if series == "turn_rate":
+            age = self._age[1] if self._age is not None and self._age[0] == t else 0.0
+            self.recording.turn_rate_age.append((t, age))
+            t -= age
+        getattr(self.recording, series).append((t, convert(v)))
 
     def iterate(self, now: float) -> None:
         if self._x is None or self._y is None:

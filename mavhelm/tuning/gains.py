@@ -23,11 +23,12 @@ Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the
   cross-track error on the next leg from 10 m along it (the issue's window), and how long
   after the leg starts its cross-track error stays within 0.1 m.
 
-Each with the fitted delay and up to 0.1 s more (``DELAY_STEPS``: telemetry and GPS latency
-the fit does not see), the U-turn at 0.9–1.1 of the speed, the worst counting. The baseline
-(the product's defaults) is one of the candidates, and a candidate is taken only if it is
-predicted no slower and no less damped than the baseline on every one of these, so the tune
-never writes gains predicted worse than the defaults.
+Each with the loop's delay (the fitted one and the telemetry's age when the helm steers on
+it) and up to 0.1 s more (``DELAY_STEPS``: GPS latency and what the fit does not see), the
+U-turn at 0.9–1.1 of the speed, the worst counting. The baseline (the product's defaults) is
+one of the candidates, and a candidate is taken only if it is predicted no slower and no less
+damped than the baseline on every one of these, so the tune never writes gains predicted
+worse than the defaults.
 """
 
 from __future__ import annotations
@@ -331,7 +332,8 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
         window = on_leg & (along >= LEG_WINDOW[0]) & (along <= LEG_WINDOW[1])
         swing = np.where(window, np.maximum(swing, np.abs(xte)), swing)
         last_big = np.where(on_leg & (np.abs(xte) > LINE_TOLERANCE), t, last_big)
-        settle = np.where(on_leg & (along <= LEG_WINDOW[1]), last_big - leg_start, settle)
+        settle = np.where(on_leg & (along <= LEG_WINDOW[1]),
+                          np.maximum(last_big - leg_start, 0.0), settle)
         loop.step(desired, t)
         track.append(loop.psi.copy())
         heading = np.radians(track.pop(0))
@@ -348,7 +350,7 @@ def predict_all(gains: list[Gains], yaw: YawModel, course: Course, *, max_rudder
     speed = course.speed if course.speed is not None and course.speed > 0.05 else None
     figures = []
     for extra in DELAY_STEPS:
-        delay = yaw.delay + extra
+        delay = yaw.loop_delay + extra
         settle, overshoot = _heading_step(c, yaw, delay, max_rudder, app_tick)
         for factor in SPEED_SPREAD if speed is not None else (1.0,):
             swing = line = np.full(len(gains), np.nan)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from mavhelm.tuning.gains import Course, Gains, Prediction, design
 from mavhelm.tuning.model import (
     Series,
@@ -17,15 +19,20 @@ from mavhelm.tuning.model import (
 
 TRUSTED_FIT_RMS = 8.0
 """Above this residual (deg/s) the turn-rate model is not trusted to choose gains, and the
-defaults are kept. The real SITL motorboat fits within 5–7 deg/s and its tuned gains fly
+defaults are kept. The real SITL motorboat fits within 4–6 deg/s and its tuned gains fly
 about as predicted (0.13–0.25 m after a U-turn at 5 m/s against 0.10–0.11); the
-motorboat-skid at 5 m/s leaves 10–14: it turns 1.3–1.45 times the rate Rover asks of it (its
+motorboat-skid at 5 m/s leaves 11 (the samples placed when the autopilot took them: the
+timing is not what is missing): it turns 1.3–1.45 times the rate Rover asks of it (its
 dataflash log's STER: 87–97 deg/s where 67 was asked) until the autopilot's rate integrator
 pulls it back over about a second, and the integral a survey's U-turn winds up turns it 2–3
 deg/s the other way for 2 s after the turn. The fitted model has neither, so it predicted its
 tuned gains 0.03–0.10 m after a U-turn where they flew 0.38–0.52 m, worse than the defaults
 (0.23–0.45 m); a model with both, fitted from the same recording, still put them first (0.28
 m, the defaults 0.99 m: ``benchmarks/bench_tracking.py``)."""
+
+MAX_LATENCY = 1.0
+"""A turn rate older than this when a command went out is a stall of the link, not the
+loop's latency: it counts as this much."""
 
 CRUISE_FRACTION = 0.8
 """The turn rate is fitted on the samples taken at this fraction of the cruise speed or more
@@ -34,7 +41,8 @@ CRUISE_FRACTION = 0.8
 
 @dataclass
 class Recording:
-    """What the helm sent and what came back, on the companion's clock."""
+    """What the helm sent and what came back, on the companion's clock (each turn rate
+    placed when the autopilot took it, not when it was heard)."""
 
     turn_command: list[tuple[float, float]] = field(default_factory=list)
     """Turn rate sent to the autopilot, deg/s clockwise."""
@@ -52,6 +60,9 @@ class Recording:
     """The navigation's position east (NAV_X), m."""
     y: list[tuple[float, float]] = field(default_factory=list)
     """The navigation's position north (NAV_Y), m."""
+    turn_rate_age: list[tuple[float, float]] = field(default_factory=list)
+    """(when heard, how late: INS_AGE) of each turn-rate sample, which ``turn_rate`` places
+    that much earlier, when the autopilot took it."""
 
     def since(self, t0: float) -> Recording:
         """The samples from ``t0`` on (the response before the first command says nothing)."""
@@ -60,7 +71,20 @@ class Recording:
         return Recording(keep(self.turn_command), keep(self.turn_rate),
                          keep(self.thrust_command), keep(self.speed),
                          keep(self.autopilot_speed), keep(self.heading), keep(self.x),
-                         keep(self.y))
+                         keep(self.y), keep(self.turn_rate_age))
+
+    def latency(self) -> float:
+        """How old the newest turn rate heard was, on average over the helm's commands, s:
+        what the heading loop waits on besides the vehicle (0 without samples)."""
+        commands = Series.of(self.turn_command).t
+        heard = Series.of(self.turn_rate_age)
+        if not len(heard) or not len(commands):
+            return 0.0
+        taken = np.maximum.accumulate(heard.t - heard.y)  # the newest taken, heard by then
+        newest = np.searchsorted(heard.t, commands, side="right") - 1
+        seen = newest >= 0
+        ages = commands[seen] - taken[newest[seen]]
+        return float(np.mean(np.clip(ages, 0.0, MAX_LATENCY))) if len(ages) else 0.0
 
 
 @dataclass(frozen=True)
@@ -90,7 +114,8 @@ class Tuning:
         accel = ("none" if not math.isfinite(y.accel_limit)
                  else f"{y.accel_limit:.0f} deg/s²")
         lines = [
-            f"turn rate: time constant {y.time_constant:.2f} s, delay {y.delay:.2f} s, "
+            f"turn rate: time constant {y.time_constant:.2f} s, delay {y.delay:.2f} s (and "
+            f"{y.latency:.2f} s of telemetry age when steered on), "
             f"gain {y.gain:.2f}, limit {y.rate_limit:.1f} deg/s, acceleration limit {accel} "
             f"(fit RMS {y.rms:.2f} deg/s)",
             f"speed: {s.speed_at(100.0):.2f} m/s at full thrust, time constant "
@@ -137,7 +162,8 @@ def identify(recording: Recording, *, max_rudder: float, app_tick: float,
     rates = Series.of(data.turn_rate)
     cruising = speeds.held(rates.t) >= CRUISE_FRACTION * speed.speed_at(cruise_thrust) \
         if len(speeds) else None
-    yaw = fit_yaw(Series.of(data.turn_command), rates, cruising)
+    yaw = replace(fit_yaw(Series.of(data.turn_command), rates, cruising),
+                  latency=data.latency())
     cruise = speed.speed_at(cruise_thrust)
     lag = fit_course_lag(Series.of(data.heading), Series.of(data.x), Series.of(data.y),
                          CRUISE_FRACTION * cruise)

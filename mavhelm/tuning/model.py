@@ -66,6 +66,15 @@ class YawModel:
     """RMS of the fit's residual, deg/s."""
     accel_limit: float = math.inf
     """a_max, deg/s²: the fastest the turn rate changes."""
+    latency: float = 0.0
+    """How old, on average, the newest turn rate (and heading) is when the helm steers on it,
+    s: the telemetry's batches and the ticks between them. The fit, on samples placed when
+    the autopilot took them, no longer counts it in ``delay``; the heading loop has both."""
+
+    @property
+    def loop_delay(self) -> float:
+        """From the helm's command to its seeing the response, s."""
+        return self.delay + self.latency
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,9 @@ GPS_RAW_INT           ``GPS_FIX``; with a 3-D fix ``GPS_X``, ``GPS_Y`` (m), ``GP
                       (m/s), ``GPS_HEADING`` (deg, course over ground), ``GPS_AGE`` (s, how
                       old the fix is on arrival, when time_usec is the autopilot's clock)
 ATTITUDE              ``INS_YAW`` (rad, yaw = −heading), ``INS_HEADING`` (deg),
-                      ``INS_PITCH``, ``INS_ROLL`` (rad), ``INS_YAW_VEL`` (rad/s)
+                      ``INS_PITCH``, ``INS_ROLL`` (rad), ``INS_YAW_VEL`` (rad/s),
+                      ``INS_AGE`` (s, how much later than its time_boot_ms it was heard,
+                      against the least late of the last few seconds' messages)
 GLOBAL_POSITION_INT   ``AP_X``, ``AP_Y`` (m), ``AP_SPEED`` (m/s), ``AP_HEADING`` (deg),
                       ``AP_YAW`` (rad): the autopilot's EKF, while it has a position
 on ArduSub: GLOBAL_   ``AP_DEPTH`` (m, down) and ``AP_Z`` (m, up; the surface is Z = 0, tide 0,

@@ -18,6 +18,7 @@ from pymavlink.dialects.v20.ardupilotmega import MAVLink_message as Msg
 
 from mavhelm.companion.actuation import GCS_SYSID_PARAMS, SUB_PRESSURE_PARAMS, SubGuided
 from mavhelm.companion.bridge.config import BridgeConfig, make_actuation
+from mavhelm.companion.bridge.lateness import sane
 from mavhelm.companion.bridge.readings import (
     DOWNWARD,
     UNKNOWN_U16,
@@ -209,8 +210,13 @@ def _check_distance(bridge: MavlinkBridge, x: float, y: float) -> None:
 
 
 def on_attitude(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
+    """The attitude and turn rate, and ``INS_AGE``: how much later than its time_boot_ms it
+    was heard (``lateness``), so a reader can place the sample when the autopilot took it."""
     if not all(math.isfinite(v) for v in (msg.roll, msg.pitch, msg.yaw, msg.yawspeed)):
         raise ValueError("non-finite attitude")
+    late = sane(bridge.state.late)
+    if late is not None:  # first: a reader takes it with the turn rate and heading after it
+        post("INS_AGE", late)
     post("INS_YAW", 0.0 - msg.yaw)
     post("INS_HEADING", math.degrees(msg.yaw) % 360.0)
     post("INS_PITCH", msg.pitch)
@@ -414,6 +420,24 @@ def read_messages(config: BridgeConfig, vehicle_type: int | None = None) -> froz
     return read | frozenset(config.streams)
 
 
+def _autopilot_time(bridge: MavlinkBridge, msg: Msg) -> float:
+    """Feed the autopilot's clock from the message's time_boot_ms (if it has one) and note
+    how late the message is heard on it; returns the message's one stamp. One for every
+    variable of a message: an autopilot clock moves between two posts, and GPS_X and GPS_Y
+    stamped microseconds apart are not one fix to pNav (it dropped 22-83 % of the fixes on
+    the real SITL at x5)."""
+    state = bridge.state
+    time_boot_ms = getattr(msg, "time_boot_ms", None)
+    if time_boot_ms is not None:
+        state.boot_s = boot_seconds(time_boot_ms)
+        if bridge.time_source is not None:
+            bridge.time_source(state.boot_s)
+    stamp = bridge.bus.clock.now()
+    state.late = None if state.boot_s is None or time_boot_ms is None \
+        else state.lateness.heard(stamp, state.boot_s)
+    return stamp
+
+
 def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     """Route one message heard at ``now`` to its handler."""
     kind = msg.get_type()
@@ -436,18 +460,10 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     if not from_autopilot:
         return
     bridge.state.heard.add(kind)
-    time_boot_ms = getattr(msg, "time_boot_ms", None)
-    if time_boot_ms is not None:
-        bridge.state.boot_s = boot_seconds(time_boot_ms)
-        if bridge.time_source is not None:
-            bridge.time_source(bridge.state.boot_s)
+    stamp = _autopilot_time(bridge, msg)
     handler = FROM_AUTOPILOT.get(kind)
     if handler is None:
         return
-    # one stamp for every variable of a message: an autopilot clock moves between two
-    # posts, and GPS_X and GPS_Y stamped microseconds apart are not one fix to pNav (it
-    # dropped 22-83 % of the fixes on the real SITL at x5)
-    stamp = bridge.bus.clock.now()
 
     def post(name: str, value: float | str) -> None:
         bridge.input.notify(name, value, stamp)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mavhelm.companion.actuation import AutopilotView
+from mavhelm.companion.bridge.lateness import Lateness
 
 
 @dataclass
@@ -37,6 +38,11 @@ class AutopilotState:
     """The autopilot's clock (s since boot) in the latest message that carried one: a
     message on the link was sent no earlier, so a GPS fix is at least that clock less its
     time_usec old."""
+    lateness: Lateness = field(default_factory=Lateness)
+    """How the autopilot's clock lines up with the companion's stamps."""
+    late: float | None = None
+    """How much later than its own time_boot_ms the message being handled was heard (s,
+    ``Lateness``); None for a message without one."""
 
     def forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts."""
@@ -48,3 +54,5 @@ class AutopilotState:
         self.unsigned_heartbeats = 0
         self.view = AutopilotView()
         self.boot_s = None
+        self.lateness = Lateness()
+        self.late = None
