@@ -67,6 +67,31 @@ def test_the_bridge_posts_gps_age_with_the_fix() -> None:
     assert gps(60_050_000)["GPS_AGE"] == 0.0  # before the next message with the clock
 
 
+def test_a_fix_read_late_in_a_batch_is_aged_on_the_lined_up_clock() -> None:
+    """A link that delivers in batches: the ATTITUDE at 60.0 s was heard at once, the next
+    batch (an ATTITUDE at 60.1 s, a fix taken at 59.98 s) 0.07 s after 60.1 s. The newest clock
+    read says the fix is 0.12 s old; the clocks lined up on the least late message say 0.19."""
+    clock = SimClock(100.0)
+    bus = Bus(clock)
+    bus.subscribe("test", ["*"])
+    bridge = MavlinkBridge(bus, BridgeConfig(connect=f"udpin:127.0.0.1:{free_udp_port()}"), ORIGIN)
+    autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    handle(bridge, _decoded(autopilot, mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 15, 4, 3)),
+        clock.now())
+    handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
+        60_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)), clock.now())
+    clock.advance(0.17)
+    handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
+        60_100, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)), clock.now())
+    handle(bridge, _decoded(autopilot, mavlink.MAVLink_gps_raw_int_message(
+        59_980_000, mavlink.GPS_FIX_TYPE_3D_FIX, int(ORIGIN.lat * 1e7), int(ORIGIN.lon * 1e7),
+        0, 100, 100, 300, 9000, 10)), clock.now())
+    posted = {m.name: m.value for m in bus.fetch("test")}
+    assert posted["INS_AGE"] == pytest.approx(0.07)
+    assert posted["GPS_AGE"] == pytest.approx(0.19)
+
+
 def test_the_reader_joins_an_age_to_its_fix_and_refuses_one_out_of_range() -> None:
     reader = SensorReader([SensorSpec("XY", "GPS", "gps", noise=(2.0,))], [])
 

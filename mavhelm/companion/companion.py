@@ -186,8 +186,11 @@ class Companion:
         companion.community.apps.insert(0, MoosNotes(bus, mission_notes(plan.mission)))
         if tlog_path is not None:
             try:
+                # stamped on the companion's clock, as the .alog is: beside a SITL run faster
+                # than real time (--clock autopilot) wall stamps would replay it that much slower
                 companion.tlog = TlogWriter(
-                    tlog_path, on_error=lambda why: bus.notify("TLOG_WARNING", why, "pLogger"))
+                    tlog_path, clock=bus.clock.now,
+                    on_error=lambda why: bus.notify("TLOG_WARNING", why, "pLogger"))
             except (OSError, ValueError) as exc:
                 companion.close()
                 raise SettingError("--log-dir", f"the .tlog {str(tlog_path)!r}", exc) from None

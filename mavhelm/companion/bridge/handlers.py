@@ -189,7 +189,10 @@ def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     _check_distance(bridge, x, y)
     post("GPS_X", x)
     post("GPS_Y", y)
-    age = fix_age(bridge.state.boot_s, msg.time_usec)
+    state = bridge.state
+    clock = state.lateness.autopilot_time(state.heard_at) if state.heard_at is not None else None
+    age = fix_age(state.boot_s if clock is None else max(clock, state.boot_s or clock),
+                  msg.time_usec)
     if age is not None:
         post("GPS_AGE", age)
     if msg.vel != UNKNOWN_U16:
@@ -432,7 +435,7 @@ def _autopilot_time(bridge: MavlinkBridge, msg: Msg) -> float:
         state.boot_s = boot_seconds(time_boot_ms)
         if bridge.time_source is not None:
             bridge.time_source(state.boot_s)
-    stamp = bridge.bus.clock.now()
+    stamp = state.heard_at = bridge.bus.clock.now()
     state.late = None if state.boot_s is None or time_boot_ms is None \
         else state.lateness.heard(stamp, state.boot_s)
     return stamp

@@ -47,6 +47,12 @@ class Lateness:
             queue.popleft()
         return offset - queue[0][1]
 
+    def autopilot_time(self, stamp: float) -> float | None:
+        """The autopilot's clock at companion stamp ``stamp``, as the least late recent message
+        lines the two up (None before any): a message without a time_boot_ms of its own, a
+        GPS fix's, is dated by it rather than by the newest clock read in its batch."""
+        return stamp - self._queue[0][1] if self._queue else None
+
 
 def sane(late: float | None) -> float | None:
     """``late`` when it is a lateness to correct a sample by (0 to MAX_LATE_S), else None."""

@@ -79,8 +79,9 @@ class WheelOdometry:
 
 
 def fix_age(boot_s: float | None, time_usec: int) -> float | None:
-    """How old a GPS fix is on arrival (s), at least: the autopilot's clock in the latest
-    message that carried it (the fix was sent no earlier) less the fix's time_usec, which
+    """How old a GPS fix is on arrival (s), at least: ``boot_s``, the autopilot's clock when
+    the fix was heard (the bridge's ``Lateness`` dates it; else the latest message that
+    carried the clock, which the fix was sent no earlier than), less the fix's time_usec, which
     ArduPilot sends as its own boot time of the fix. The stream is not in step with the
     receiver, so a 5 Hz GPS_RAW_INT carries a fix 0-0.2 s old, the same all run long; pNav
     moves the fix on by it. A fix newer than that clock came before the next message that

@@ -43,6 +43,8 @@ class AutopilotState:
     late: float | None = None
     """How much later than its own time_boot_ms the message being handled was heard (s,
     ``Lateness``); None for a message without one."""
+    heard_at: float | None = None
+    """The companion's stamp of the message being handled."""
 
     def forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts."""
@@ -56,3 +58,4 @@ class AutopilotState:
         self.boot_s = None
         self.lateness = Lateness()
         self.late = None
+        self.heard_at = None
