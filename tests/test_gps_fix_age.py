@@ -161,3 +161,59 @@ def test_a_heading_in_a_turn_is_widened_by_the_lateness_times_the_turn_rate() ->
     fusion.ekf.x[I_VH, 0] = math.radians(15.0)  # 15 deg/s, stamped 0.1 s late: 1.5 deg off
     widened = fusion._weighted(compass, "compass").sigma
     assert math.degrees(widened) == pytest.approx(math.hypot(0.5, 1.5))
+
+
+HEADING_MISSION = """\
+ProcessConfig = pNav
+{
+    X = EKF @ 2
+    Y = EKF @ 2
+    Heading = EKF @ 2
+    SENSOR_XY = GPS -> gps ~ 0.3
+    SENSOR_ORIENTATION = INS -> compass ~ 0.5
+    EKF_XY_DYNAMICS = 3
+}
+"""
+
+
+def _heading_lag(age: float | None, late: float = 0.15, seconds: float = 60.0) -> float:
+    """Mean heading error (deg, + ahead of the truth) of a navigator on a vehicle circling at
+    3 m/s, 12 deg/s, its compass heard ``late`` s after it read (INS_AGE posted when ``age`` is
+    not None)."""
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    nav = Navigator.from_block(bus, parse_mission(HEADING_MISSION, "m.moos").process("pNav"))
+    bus.subscribe(nav.name, nav.subscriptions())
+    rate = math.radians(12.0)
+    radius = 3.0 / rate
+
+    def pose(t: float) -> tuple[float, float, float]:
+        a = rate * t   # clockwise from north
+        return radius * (1 - math.cos(a)), radius * math.sin(a), math.degrees(a)
+
+    errors = []
+    for k in range(int(seconds / 0.1)):
+        t = 0.1 * k
+        clock.set(t)
+        x, y, heading = pose(t - late)
+        bus.notify("INS_YAW", -math.radians(heading), t)
+        if age is not None:
+            bus.notify("INS_AGE", age, t)
+        if k % 2 == 0:
+            fx, fy, _ = pose(t)
+            bus.notify("GPS_X", fx, t)
+            bus.notify("GPS_Y", fy, t)
+        nav.on_mail(bus.fetch(nav.name), t)
+        nav.iterate(t)
+        estimate = nav.fusion.ekf.estimate() if nav.fusion and nav.fusion.ekf else None
+        if estimate is not None and t > 20.0:
+            errors.append((estimate.heading - pose(estimate.t)[2] + 180.0) % 360.0 - 180.0)
+    return sum(errors) / len(errors)
+
+
+def test_a_heading_heard_late_in_a_turn_is_moved_on_by_its_age() -> None:
+    trailing = _heading_lag(None)
+    moved = _heading_lag(0.15)
+    print(f"\n[heading] stamped as heard: {trailing:+.2f} deg; moved on by INS_AGE: {moved:+.2f}")
+    assert trailing < -1.0                # 0.15 s at 12 deg/s: 1.8 deg behind, less the GPS's pull
+    assert abs(moved) < 0.3

@@ -367,11 +367,14 @@ class BodyVelocity:
 
 @dataclass(frozen=True)
 class Yaw:
-    """Yaw (rad, yaw = −heading) from an orientation sensor at ``t``."""
+    """Yaw (rad, yaw = −heading) from an orientation sensor at ``t``; read ``age`` s before
+    ``t`` (a telemetry link's batch), so it is the heading then: ψ − age·ψ̇, whose rate row
+    lets the filter weigh the turn's share rather than move the reading by its own guess."""
 
     t: float
     z: float
     sigma: float = YAW_SIGMA
+    age: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -996,6 +999,9 @@ class EKF:
         if isinstance(obs, Yaw):
             jacobian = [(I_H, 1.0)]
             predicted = x[I_H]
+            if obs.age:
+                jacobian.append((I_VH, -obs.age))
+                predicted -= obs.age * x[I_VH]
             if self.i_bias is not None:
                 jacobian.append((self.i_bias, 1.0))
                 predicted += x[self.i_bias]

@@ -464,9 +464,13 @@ class Fusion:
         widened by the velocity's own over that time. Left as stamped, the estimate trails
         the vehicle by the age times the speed, a bias no σ told (NEES 2.4-2.6)."""
         obs, ekf = r.obs, self.ekf
-        if not r.age or not isinstance(obs, Position) or ekf is None or not ekf.config.mobile:
+        if not r.age or ekf is None or not ekf.config.mobile:
             return obs
         x, P = ekf.x, ekf.P
+        if isinstance(obs, Yaw):  # heard late in a turn (INS_AGE): the heading that long ago
+            return dataclasses.replace(obs, age=r.age)
+        if not isinstance(obs, Position):
+            return obs
         var_v = (float(P[I_VX, I_VX]) + float(P[I_VY, I_VY])) / 2.0
         return dataclasses.replace(obs, x=obs.x + float(x[I_VX, 0]) * r.age,
                                    y=obs.y + float(x[I_VY, 0]) * r.age,

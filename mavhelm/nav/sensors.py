@@ -18,7 +18,8 @@ What each type reads (``S`` is the source) and the unit of its noise:
 ============  ==========================================================  ================
 XY            ``S_X``, ``S_Y`` posted with the same time stamp (m); with     m
               them ``S_AGE`` (s), if posted: how old the fix was on arrival
-ORIENTATION   ``S_YAW`` (rad, yaw = −heading), else ``S_HEADING`` (deg)      deg
+ORIENTATION   ``S_YAW`` (rad, yaw = −heading), else ``S_HEADING`` (deg); with    deg
+              them ``S_AGE`` (s), if posted: how old the heading was on arrival
 DEPTH         ``S_DEPTH`` (m below the surface)                              m
 ALTITUDE      ``S_ALTITUDE`` (m above the bottom; not fused: no seabed       m
               model, passed on as ``EKF_ALTITUDE`` of the vehicle's origin)
@@ -68,9 +69,10 @@ from mavhelm.nav.ekf import (
 )
 
 MAX_FIX_AGE: Final = 1.0
-"""s: an XY fix's ``S_AGE`` beyond this (or below 0) is not believed; the fix is taken as
-stamped. Moving a fix on by more than a second of dead reckoning would add its error, and a
-GPS_RAW_INT older than this is a time_usec on another clock (the bridge posts no age)."""
+"""s: an XY fix's or a heading's ``S_AGE`` beyond this (or below 0) is not believed; the
+reading is taken as stamped. Moving it on by more than a second of dead reckoning would add
+its error, and a GPS_RAW_INT older than this is a time_usec on another clock (the bridge
+posts no age)."""
 
 SENSOR_TYPES: Final = ("XY", "ORIENTATION", "DEPTH", "ALTITUDE", "BODY_VEL", "LBL", "RANGE")
 
@@ -301,8 +303,9 @@ class Reading:
     channel: str = ""
     raw: float = math.nan
     age: float = 0.0
-    """How old an XY fix already was when stamped (s, ``S_AGE``): the filter moves it on by
-    this along its velocity (:meth:`Fusion._brought_forward`)."""
+    """How old an XY fix or a heading already was when stamped (s, ``S_AGE``: the bridge's
+    GPS_AGE, INS_AGE): the filter moves it on by this along its velocity or turn rate
+    (:meth:`Fusion._brought_forward`)."""
 
 
 class SensorReader:
@@ -332,7 +335,8 @@ class SensorReader:
         if sensor.type == "XY":
             return [(f"{s}_X", "x", ""), (f"{s}_Y", "y", ""), (f"{s}_AGE", "age", "")]
         if sensor.type == "ORIENTATION":
-            return [(f"{s}_YAW", "yaw", ""), (f"{s}_HEADING", "heading", "")]
+            return [(f"{s}_YAW", "yaw", ""), (f"{s}_HEADING", "heading", ""),
+                    (f"{s}_AGE", "age", "")]
         if sensor.type == "DEPTH":
             return [(f"{s}_DEPTH", "depth", "")]
         if sensor.type == "ALTITUDE":
@@ -404,11 +408,16 @@ class SensorReader:
         if sensor.type == "ORIENTATION":
             if "yaw" in values:
                 yaw = values["yaw"]
-            else:
+            elif "heading" in values:
                 yaw = heading_to_yaw(values["heading"])
+            else:
+                self.incomplete += 1  # an age without its heading
+                return None
             yaw += math.radians(sensor.twist)  # the sensor reads the heading of its own axis
+            age = values.get("age", 0.0)
             return Reading(sensor, Yaw(t, math.remainder(yaw, 2 * math.pi),
-                                       math.radians(sensor.sigma())))
+                                       math.radians(sensor.sigma())),
+                           age=age if 0.0 <= age <= MAX_FIX_AGE else 0.0)
         if sensor.type == "DEPTH":
             return Reading(sensor, Depth(t, values["depth"], sensor.sigma(), sensor.lever))
         forward, starboard = values.get("forward"), values.get("starboard")
