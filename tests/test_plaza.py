@@ -174,3 +174,20 @@ def test_a_recording_with_gaps_and_wider_tables_converts(tmp_path) -> None:
              if line and not line.startswith("%")]
     assert names.count("TRUTH_X") == len(t) - 1
     assert names.count("UWB_RANGE_7") == 1 and names.count("UWB_RANGE_8") == 1
+
+
+def test_a_recording_without_its_dead_reckoning_integrates_the_odometry() -> None:
+    """A recording that gives the odometry increments (``DR``) but not their sum (``DRp``)
+    gets the heading integrated by the converter, the same as Plaza1's own."""
+    if not MAT.exists():
+        pytest.skip(f"the Plaza data set is absent: {MAT}")
+    mat = scipy.io.loadmat(str(MAT))
+    without = {k: v for k, v in mat.items() if k != "DRp"}
+    convert = _module("convert")
+    given = convert.dead_reckoning(mat)
+    integrated = convert.dead_reckoning(without)
+    assert integrated.shape == given.shape
+    turn = (integrated[:, 3] - given[:, 3] + np.pi) % (2 * np.pi) - np.pi
+    assert np.abs(turn).max() < 1e-9
+    headings = [m for m in convert.messages(without) if m.name == "ODOM_HEADING"]
+    assert len(headings) == len(given)

@@ -11,7 +11,8 @@ clock; LOGSTART is its first time):
                     second noise says how strictly)
 - ``ODOM_YAW_VEL``  rad/s, yaw rate over the same interval (counter-clockwise positive, as
                     mavhelm's yaw = −heading)
-- ``ODOM_HEADING``  degrees clockwise from north: the vehicle's own heading (``DRp``)
+- ``ODOM_HEADING``  degrees clockwise from north: the vehicle's own heading (``DRp``, or
+                    ``DR`` integrated when a recording has no ``DRp``)
 - ``UWB_RANGE_<id>`` m, a range to beacon ``<id>`` as measured (offset included) (``TD``)
 - ``TRUTH_X``, ``TRUTH_Y`` m, ``TRUTH_HEADING`` degrees: ground truth (``GT``)
 
@@ -54,9 +55,30 @@ def _finite_rows(array: np.ndarray) -> np.ndarray:
     return a[np.isfinite(a).all(axis=1)]
 
 
+def dead_reckoning(mat: dict[str, np.ndarray]) -> np.ndarray:
+    """``DRp`` (t, x, y, angle): the odometry integrated, as the data set gives it; a recording
+    without it gets it integrated here from ``DR``, from the ground truth's first pose, where
+    Plaza1's own ``DRp`` starts. Only its heading is used (``ODOM_HEADING``): on Plaza1 the
+    integrated angle equals ``DRp``'s at every row (a test)."""
+    if "DRp" in mat:
+        return _finite_rows(mat["DRp"])
+    dr, gt = _finite_rows(mat["DR"]), _finite_rows(mat["GT"])
+    t0, x, y, angle = (float(v) for v in gt[0])
+    rows = [(t0, x, y, angle)]
+    for t, dist, dyaw in dr:
+        if t <= rows[-1][0]:
+            continue
+        angle += float(dyaw)
+        x += float(dist) * math.cos(angle)
+        y += float(dist) * math.sin(angle)
+        rows.append((float(t), x, y, angle))
+    return np.array(rows)
+
+
 def messages(mat: dict[str, np.ndarray]) -> list[Message]:
     """Every variable of the log, time-ordered (stable, so a time's rows keep their order)."""
-    gt, dr, drp, td = (_finite_rows(mat[k]) for k in ("GT", "DR", "DRp", "TD"))
+    gt, dr, td = (_finite_rows(mat[k]) for k in ("GT", "DR", "TD"))
+    drp = dead_reckoning(mat)
     out: list[Message] = []
     for (t_before, _d, _a), (t, dist, dyaw) in zip(dr, dr[1:], strict=False):
         dt = float(t - t_before)
