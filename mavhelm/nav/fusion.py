@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mavhelm.nav.alignment import MotionAlignment
 from mavhelm.nav.beacon_watch import BeaconWatch
 from mavhelm.nav.ekf import (
     ALONG_TRACK,
@@ -116,6 +117,18 @@ accelerating boat by up to 18 m in its first 40 s), 0.56 / 3.7 with 10 s, 0.55 /
 a compass, 0.156 m/s RMS, stays so up to 20 s (40: 0.169)."""
 FUTURE_TOLERANCE = 1.0
 """s: a reading stamped further ahead of the navigator's clock than this is refused."""
+ALIGN_JUMP = math.radians(20.0)
+"""rad: the least offset between the motion's and the filter's bias that is realigned (and
+only beyond three times their combined 1-σ); a nearer one the bias state learns from the
+data itself."""
+ALIGN_RESET = math.radians(60.0)
+"""rad: a heading this far out has misled every hidden state it touched (beacon offsets,
+range scale, the beacons' and channels' verdicts): they start again from their priors at
+the last fix, as a re-initialisation does."""
+ALIGN_SIGMA = math.radians(10.0)
+"""rad: the least 1-σ of a heading taken from the motion."""
+ALIGN_SIGMA_VELOCITY = 0.5
+"""m/s: the 1-σ of the velocity set from the last run made good."""
 
 
 @dataclass(frozen=True)
@@ -208,6 +221,11 @@ class Fusion:
         a speed): then the motion can tell a heading bias from a heading."""
         self.noise = NoiseMatch()
         self.beacon_watch = BeaconWatch()
+        self.alignment = MotionAlignment()
+        self._last_fix: tuple[float, float, float] | None = None
+        """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
+        """The orientation sensor's offset from the course made good, for a heading far out
+        (:meth:`_align`)."""
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""
@@ -339,6 +357,7 @@ class Fusion:
         self._lost = True
         self._stream.clear()
         self.reinitialisations += 1
+        self.alignment.clear()
         self._decide(Decision(t, LOST, f"{why}: EKF off-line until the LSQ boots it again"))
 
     def _decide(self, decision: Decision) -> None:
@@ -395,6 +414,7 @@ class Fusion:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
         fixes = self._feed_lsq(kept)
+        self._feed_alignment(kept, fixes)
         if self.ekf is not None:
             cruising = self.heading_watch.under_way_for(t) >= UNDER_WAY_TIME
             self.ekf.along_track = ALONG_TRACK if cruising else 1.0
@@ -409,6 +429,63 @@ class Fusion:
                 return
         if kept:
             self._update(t, kept)
+        self._align(t)
+
+    def _feed_alignment(self, kept: list[Reading], fixes: list[Fix]) -> None:
+        """Headings, astern runs, then the slice's fixes (the LSQ's, else an XY sensor's)."""
+        alignment, ekf = self.alignment, self.ekf
+        bias = float(ekf.x[ekf.i_bias, 0]) if ekf is not None and ekf.i_bias is not None else 0.0
+        for r in kept:
+            obs = r.obs
+            if isinstance(obs, Yaw):
+                alignment.add_heading(obs.t, obs.z, bias)
+            elif isinstance(obs, BodyVelocity) and obs.forward is not None:
+                alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
+        if self.lsq is not None:
+            for fix in fixes:
+                alignment.add_fix(fix.t, fix.x, fix.y)
+                self._last_fix = (fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA))
+            return
+        for r in kept:
+            if isinstance(r.obs, Position):
+                alignment.add_fix(r.obs.t, r.obs.x, r.obs.y)
+                self._last_fix = (r.obs.x, r.obs.y, max(2.0 * r.obs.sigma, 1.0))
+
+    def _align(self, t: float) -> None:
+        """A heading far out, taken from the motion (:mod:`mavhelm.nav.alignment`), where the
+        heading moves the position: when the runs made good put the sensor's offset more than
+        ``ALIGN_JUMP`` (and three times the combined 1-σ) from the bias the filter holds;
+        nearer, the bias state learns it itself. Beyond ``ALIGN_RESET`` the hidden states
+        start again at the last fix."""
+        ekf = self.ekf
+        if ekf is None or not self._heading_coupled:
+            return
+        found = self.alignment.estimate()
+        if found is None:
+            return
+        i = ekf.i_bias
+        bias, var = (float(ekf.x[i, 0]), float(ekf.P[i, i])) if i is not None else (0.0, 0.0)
+        off = abs(found.correction)
+        if off < max(ALIGN_JUMP, 3.0 * math.sqrt(var + found.spread**2)):
+            return
+        offset = math.remainder(bias + found.correction, 2 * math.pi)
+        if ekf.i_bias is None:
+            ekf = self._add_yaw_bias(t)
+        if off > ALIGN_RESET and self._last_fix is not None:
+            x, y, sigma = self._last_fix
+            ekf.reinitialise(x, y, sigma)
+            ekf.warnings.pop()  # the decision below says it
+            self.noise = NoiseMatch()
+            self.beacon_watch = BeaconWatch()
+        turn = ekf.realign_heading(offset, found.velocity,
+                                   max(found.spread, ALIGN_SIGMA), ALIGN_SIGMA_VELOCITY)
+        ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+        self.alignment.clear()
+        self._decide(Decision(t, HEADING, f"heading taken from the motion: the orientation "
+                              f"sensor reads {math.degrees(offset):+.0f}° off the course "
+                              f"made good over {found.runs} runs (spread "
+                              f"{math.degrees(found.spread):.0f}°); heading turned by "
+                              f"{math.degrees(turn):+.0f}°"))
 
     def _feed_lsq(self, kept: list[Reading]) -> list[Fix]:
         """The slice's pose-proportional readings into the LSQ; the fixes it makes."""
@@ -566,6 +643,7 @@ class Fusion:
         ekf.reinitialise(fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA), yaw=self._last_yaw)
         ekf.warnings.pop()  # its "re-initialised" line: the decision says it, and why
         self.reinitialisations += 1
+        self.alignment.clear()  # its runs were taken against the bias the filter held
         self._decide(decision)
 
     def _score(self, sensor: str, d2: float, dof: int, accepted: bool) -> None:

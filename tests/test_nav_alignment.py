@@ -1,0 +1,87 @@
+"""The heading from the motion (``mavhelm.nav.alignment``): runs made good between fixes give
+the correction an orientation sensor's bias needs, whatever its size; turns, going astern and
+crabbing give none."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from mavhelm.nav.alignment import SAMPLES, MotionAlignment
+
+
+def _straight(a: MotionAlignment, heading_deg: float, offset_deg: float, seconds: float,
+              *, t0: float = 0.0, bias_deg: float = 0.0, speed: float = 1.5,
+              drift_deg_s: float = 0.0) -> float:
+    """Drive straight on ``heading_deg``: a fix every 2 s, the sensor reading the heading plus
+    ``offset_deg`` (+ drift) at 10 Hz, the filter holding ``bias_deg`` (+ the same drift)."""
+    h = math.radians(heading_deg)
+    t = t0
+    while t < t0 + seconds:
+        drift = drift_deg_s * t
+        yaw = -math.radians(heading_deg + offset_deg + drift)
+        a.add_heading(t, yaw, -math.radians(bias_deg + drift))
+        if round(t * 10) % 20 == 0:
+            d = speed * t
+            a.add_fix(t, d * math.sin(h), d * math.cos(h))
+        t = round(t + 0.1, 6)
+    return t
+
+
+def test_a_sensor_turned_round_is_found_from_the_runs() -> None:
+    a = MotionAlignment()
+    _straight(a, 60.0, 180.0, 40.0)
+    found = a.estimate()
+    assert found is not None and found.runs >= SAMPLES
+    # the sensor reads 180° clockwise of the heading: its yaw, and the bias needed, is −180°
+    assert abs(math.degrees(math.remainder(found.correction - math.pi, 2 * math.pi))) < 0.5
+    assert found.velocity == pytest.approx((1.5 * math.sin(math.radians(60)),
+                                            1.5 * math.cos(math.radians(60))), abs=1e-6)
+
+
+def test_a_bias_the_filter_holds_leaves_no_correction_even_while_it_drifts() -> None:
+    a = MotionAlignment()
+    _straight(a, 200.0, 90.0, 40.0, bias_deg=90.0, drift_deg_s=0.6)
+    found = a.estimate()
+    assert found is not None and abs(math.degrees(found.correction)) < 0.5
+
+
+def test_a_turn_going_astern_or_crabbing_gives_no_run() -> None:
+    def circle(radius: float) -> MotionAlignment:
+        """Round a circle at 2 m/s, clockwise, the sensor reading 30° more than the heading."""
+        turning = MotionAlignment()
+        for k in range(600):
+            t = 0.1 * k
+            a = 2.0 / radius * t
+            turning.add_heading(t, -(a + math.pi / 2 + math.radians(30.0)))
+            if k % 20 == 0:
+                turning.add_fix(t, radius * math.sin(a), radius * math.cos(a) - radius)
+        return turning
+
+    assert circle(5.0).estimate() is None       # 23 deg/s: no run is straight enough
+    gentle = circle(20.0).estimate()            # 5.7 deg/s: a chord's course is the mean heading
+    assert gentle is not None
+    assert math.degrees(gentle.correction) == pytest.approx(-30.0, abs=0.5)
+    astern = MotionAlignment()
+    for k in range(400):
+        astern.add_body_velocity(0.1 * k, -1.5, 0.0)
+    _straight(astern, 0.0, 180.0, 40.0)
+    assert astern.estimate() is None
+    crabbing = MotionAlignment()
+    for k in range(400):
+        crabbing.add_body_velocity(0.1 * k, 0.5, 0.6)
+    _straight(crabbing, 0.0, 0.0, 40.0)
+    assert crabbing.estimate() is None
+
+
+def test_runs_that_disagree_make_no_estimate_and_old_ones_are_forgotten() -> None:
+    a = MotionAlignment()
+    end = _straight(a, 0.0, 90.0, 20.0)
+    _straight(a, 90.0, -90.0, 20.0, t0=end)      # a sensor that jumped by 180° midway
+    assert a.estimate() is None
+    _straight(a, 90.0, -90.0, 120.0, t0=end + 20.0)   # long after, only the new runs count
+    found = a.estimate()
+    assert found is not None and abs(math.degrees(found.correction) - 90.0) < 0.5
+    a.clear()
+    assert a.estimate() is None
