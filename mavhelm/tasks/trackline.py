@@ -486,6 +486,11 @@ class RouteTask(SteeringTask):
         share = corner_speed.fraction(turn, speed, self.lead_time, MIN_LEAD)
         return share * speed if share < 1.0 else None
 
+    def slowed_for(self, k: int) -> float:
+        """The thrust fraction the line before the one to target k was slowed to for the corner
+        between them (``corner_fraction``), kept while the turn onto the new line is flown."""
+        return self.slowing
+
     # ---- driving -------------------------------------------------------------------------
 
     def start_line(self, k: int, p1: Point2, now: float,
@@ -500,7 +505,8 @@ class RouteTask(SteeringTask):
         if p2 is None:
             self.follower = None
             return False
-        slowed, self.slowing, self.slow_speed = self.slowing, 1.0, None
+        slowed = self.slowed_for(k)
+        self.slowing, self.slow_speed = 1.0, None
         lead = self.current_lead()
         self.follower = LineFollower(p1, p2, lead)
         if entry_from is not None and self.plans_turns:
@@ -617,10 +623,13 @@ class TrackLine(RouteTask):
         if follower is not None and follower.entry is not None and \
                 abs(follower.entry.locate(here)[1]) > follower.lead:
             follower.entry = None
-        if k == 0 and self.previous is not None:
-            self.turning = self.previous.slowing if follower is not None and \
-                follower.entry is not None else 1.0
         return started
+
+    def slowed_for(self, k: int) -> float:
+        """The first line's corner was slowed for by the TrackLine before, if it is chained."""
+        if k == 0 and self.previous is not None:
+            return self.previous.slowing
+        return super().slowed_for(k)
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:
