@@ -103,6 +103,16 @@ continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm links the t
 one enters its line by the planned turn from this one's; at the old defaults, each chained line
 flown to its Radius (1 m) swung 1.0–1.25 m after every corner.
 
+A sharp corner is slowed for (``corner_speed``). The arc of one Lead leaves the line
+Lead · tan(Δ/2) before a corner of Δ (2.4 Leads at 135°: 18 m at 5 m/s), so where the line after
+the corner turns back by more than 90°, a route that plans its turns and whose Lead is a lead
+time votes cot²(Δ/2) of its thrust from its braking distance before the slowed arc's turn-in
+(``RouteTask.corner_fraction``; the line is then left at that arc's turn-in, the turn-in at
+the corner's speed), keeps it while the arc onto the next line is flown, and votes its full
+thrust again once on that line. Corners up to 90° and a survey's U-turns are flown at full
+thrust. On the real SITL motorboat a 135° zig-zag at 5 m/s went from 5–6 m off in the held
+part of each line to 0.07 m (``docs/tracking.md``).
+
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
 a Survey from 0.11 to 0.07 m RMS on the real SITL; at the tuned settings it made it no
