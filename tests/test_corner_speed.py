@@ -9,11 +9,11 @@ import pytest
 
 from mavhelm.tasks import corner_speed
 from mavhelm.tasks.corner_speed import braking_distance, fraction
-from mavhelm.tasks.geometry import track_position
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.survey import Survey
 from mavhelm.tasks.trackline import DEFAULT_LEAD_TIME, MIN_LEAD, TrackLine, link_track_lines
 from mavhelm.tasks.turn_plan import corner_arc
+from tests.support.routes import held_xte, zigzag
 from tests.support.task_rig import TBlock, nav_at, task_block
 
 
@@ -64,19 +64,6 @@ def test_braking_distance_is_the_lag_then_a_steady_deceleration() -> None:
 
 
 # ---- flown: a kinematic boat whose speed follows the thrust --------------------------------
-
-def zigzag(turn: float, legs: int = 4, leg: float = 60.0) -> list[tuple[float, float]]:
-    """A 20 m run-in east, then ``legs`` lines of ``leg`` m turning ``turn``° alternately to
-    starboard and port (the lead's zig-zag of 2026-12-02)."""
-    points = [(0.0, 0.0), (20.0, 0.0)]
-    heading = 90.0
-    for k in range(legs):
-        x, y = points[-1]
-        points.append((x + leg * math.sin(math.radians(heading)),
-                       y + leg * math.cos(math.radians(heading))))
-        heading += turn if k % 2 == 0 else -turn
-    return points
-
 
 def chain(tblock: TBlock, points: list[tuple[float, float]]) -> list[TrackLine]:
     lines = []
@@ -129,18 +116,10 @@ def fly(tasks, cruise: float, *, limit: float = 60.0, tau: float = 0.2, dt: floa
 
 
 def worst_in_window(track, points) -> float:
-    """The largest |XTE| on lines 1.. from 10 m along each to 5 m before its end: while its
-    task flies it, and while the next one flies the planned turn off it."""
-    worst = 0.0
-    for k in range(1, len(points) - 1):
-        p1, p2 = points[k], points[k + 1]
-        length = math.dist(p1, p2)
-        for task, on_arc, x, y, _, _ in track:
-            if task == k or (task == k + 1 and on_arc):
-                along, xte = track_position(p1, p2, (x, y))
-                if 10.0 <= along <= length - 5.0:
-                    worst = max(worst, abs(xte))
-    return worst
+    """The largest |XTE| in the held part of any line (``routes.held_xte``); infinite where a
+    line was never held."""
+    worst = held_xte([(x, y) for _, _, x, y, _, _ in track], points)
+    return max(math.inf if w is None else w for w in worst)
 
 
 @pytest.mark.parametrize("turn, cruise", [(45.0, 5.0), (90.0, 2.0), (90.0, 5.0)])
