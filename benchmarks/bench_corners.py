@@ -2,9 +2,9 @@
 60 m lines turning by the corner's angle alternately to starboard and port) flown at the
 product's defaults in calm water, on the real ArduPilot Rover SITL (``MAVHELM_ARDUPILOT``) or in
 ``mavhelm sim`` (``--sim``; its figures include the simulated GPS's wander, ~0.2 m RMS and 0.5 m
-at most on a straight line). The largest |XTE| (m, ground truth) in the held part of each line
-after the run-in, from 10 m along it to 5 m before its end (``tests.support.routes``), and the
-mission's time.
+at most on a straight line). The RMS and largest |XTE| (m, ground truth) in the held part of
+each line after the run-in, from 10 m along it to 5 m before its end (``tests.support.routes``),
+and the mission's time.
 
     MAVHELM_ARDUPILOT=../shared/ardupilot/ardurover python -m benchmarks.bench_corners \\
         --wp-speed 5 --turns 90,135,160
@@ -76,8 +76,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             track, note, duration = fly_real(turn, args.wp_speed, args.model, folder)
         worst = held_xte(track, zigzag(turn)) if track else []
-        cells = "  ".join("-" if w is None else f"{w:.2f}" for w in worst)
-        print(f"{where} zig-zag {turn:3g} deg @ {args.wp_speed:g} m/s: max |XTE| per line "
+        cells = "  ".join("-" if w is None else f"{w[0]:.2f}/{w[1]:.2f}" for w in worst)
+        print(f"{where} zig-zag {turn:3g} deg @ {args.wp_speed:g} m/s: RMS/max |XTE| per line "
               f"{cells}  ({duration:.0f} s) {note}", flush=True)
     return 0
 

@@ -119,7 +119,7 @@ def worst_in_window(track, points) -> float:
     """The largest |XTE| in the held part of any line (``routes.held_xte``); infinite where a
     line was never held."""
     worst = held_xte([(x, y) for _, _, x, y, _, _ in track], points)
-    return max(math.inf if w is None else w for w in worst)
+    return max(math.inf if w is None else w[1] for w in worst)
 
 
 @pytest.mark.parametrize("turn, cruise", [(45.0, 5.0), (90.0, 2.0), (90.0, 5.0)])

@@ -50,15 +50,16 @@ def chained(points: list[Point2], lead: str = "") -> str:
     return "".join(blocks)
 
 
-def held_xte(track: list[tuple[float, float]], points: list[Point2]) -> list[float | None]:
-    """The largest |XTE| (m) in the held part of each line after the run-in, from a track of
-    (x, y) in time order, or None where the track never held it. A line's points are those
-    from the track's nearest pass of its start to its nearest pass of its end, both before its
-    nearest pass of the next line's end (so the next line of a sharp corner, which doubles
-    back over this one, is not counted against it)."""
+def held_xte(track: list[tuple[float, float]],
+             points: list[Point2]) -> list[tuple[float, float] | None]:
+    """The RMS and the largest |XTE| (m) in the held part of each line after the run-in, from
+    a track of (x, y) in time order, or None where the track never held it. A line's points
+    are those from the track's nearest pass of its start to its nearest pass of its end, both
+    before its nearest pass of the next line's end (so the next line of a sharp corner, which
+    doubles back over this one, is not counted against it)."""
     start_along, end_short = WINDOW
     lines = list(zip(points[1:], points[2:], strict=False))
-    worst: list[float | None] = []
+    worst: list[tuple[float, float] | None] = []
     cursor = 0
     for k, (p1, p2) in enumerate(lines):
         if not track[cursor:]:
@@ -75,7 +76,8 @@ def held_xte(track: list[tuple[float, float]], points: list[Point2]) -> list[flo
             along, xte = track_position(p1, p2, p)
             if start_along <= along <= length - end_short:
                 held.append(abs(xte))
-        worst.append(max(held) if held else None)
+        worst.append((math.sqrt(sum(e * e for e in held) / len(held)), max(held)) if held
+                     else None)
         cursor = last
     return worst
 
