@@ -173,3 +173,26 @@ def test_a_sharp_corner_is_slowed_for_and_flown_tight(monkeypatch, turn: float, 
     monkeypatch.setattr(corner_speed, "fraction", lambda *_: 1.0)
     unslowed = fly(chain(task_block, points), cruise)
     assert worst_in_window(unslowed, points) > before
+
+
+@pytest.mark.parametrize("thrust, lead", [(None, None), ("100", "7.5")])
+def test_a_line_that_cannot_slow_leaves_the_line_where_its_turn_starts(thrust, lead) -> None:
+    """Steering only (no Thrust of its own), or with a fixed Lead, a TrackLine is not slowed
+    and its turn-in is the one at the speed measured."""
+    pairs = [*((("Thrust", thrust),) if thrust else ()), *((("Lead", lead),) if lead else ())]
+    points = zigzag(135.0)[1:4]
+    first, then = (build_task(task_block("TrackLine", ("Name", f"T{k}"),
+                                         ("P1", "{},{}".format(*points[k])),
+                                         ("P2", "{},{}".format(*points[k + 1])),
+                                         *pairs, ("FinishFlag", f"F{k + 1}"),
+                                         *((("StartFlag", "F1"),) if k else ())))
+                   for k in range(2))
+    assert isinstance(first, TrackLine) and isinstance(then, TrackLine)
+    link_track_lines([first, then])
+    first.start(0.0)
+    for i in range(12):
+        t = 1.0 + 0.5 * i
+        votes = first.step(nav_at(t, x=20.0 + 2.5 * i, y=0.0, heading=90.0, speed=5.0), t)
+        assert (votes or {}).get("THRUST") == (100.0 if thrust else None)
+    assert first.corner_speed() is None
+    assert first.turn_in(0) == pytest.approx(first.turn_in(0, 5.0))

@@ -482,11 +482,14 @@ class RouteTask(SteeringTask):
     def corner_speed(self) -> float | None:
         """The speed (m/s) to take the current line's corner at (``corner_speed.fraction`` of
         the speed measured, until the slow-down begins), or None at full speed: no sharp
-        corner, a fixed Lead (the arc would not tighten) or turns not planned."""
+        corner, a fixed Lead (the arc would not tighten), turns not planned, or no thrust of
+        its own to lower (steering only: the line is left where the turn at the speed measured
+        starts)."""
         if self.slow_speed is not None:
             return self.slow_speed
         follower = self.follower
-        if follower is None or not self.plans_turns or self.lead is not None:
+        if follower is None or not self.plans_turns or self.lead is not None or \
+                self.thrust is None or self.thrust <= 0.0:
             return None
         p2, after = self.target(self.index), self.after(self.index)
         speed = self.speed_source().speed
