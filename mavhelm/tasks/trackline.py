@@ -103,6 +103,16 @@ continues from its P2 (its P1 given, within ``CHAIN_GAP``), the helm links the t
 one enters its line by the planned turn from this one's; at the old defaults, each chained line
 flown to its Radius (1 m) swung 1.0–1.25 m after every corner.
 
+A sharp corner is slowed for (``corner_speed``). The arc of one Lead leaves the line
+Lead · tan(Δ/2) before a corner of Δ (2.4 Leads at 135°: 18 m at 5 m/s), so where the line after
+the corner turns back by more than 90°, a route that plans its turns and whose Lead is a lead
+time votes cot²(Δ/2) of its thrust from its braking distance before the slowed arc's turn-in
+(``RouteTask.corner_fraction``; the line is then left at that arc's turn-in, the turn-in at
+the corner's speed), keeps it while the arc onto the next line is flown, and votes its full
+thrust again once on that line. Corners up to 90° and a survey's U-turns are flown at full
+thrust. On the real SITL motorboat a 135° zig-zag at 5 m/s went from 5–6 m off in the held
+part of each line to 0.07 m (``docs/tracking.md``).
+
 Tried and not kept: letting the carrot run on round the corner onto the next line of a route
 (Survey, XYPattern, Orbit), so that the vehicle starts its turn early. At the defaults it took
 a Survey from 0.11 to 0.07 m RMS on the real SITL; at the tuned settings it made it no
@@ -128,7 +138,7 @@ from collections.abc import Iterable
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
-from mavhelm.tasks import turn_plan
+from mavhelm.tasks import corner_speed, turn_plan
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
 from mavhelm.tasks.steering import SteeringTask
@@ -340,12 +350,25 @@ class RouteTask(SteeringTask):
     flown: tuple[tuple[Point2, Point2], ...] = ()
     """The last two lines flown before the current one, (P1, P2) each, the latest last."""
 
+    slowing = 1.0
+    """The thrust fraction asked for the current line's corner (``corner_speed``), latched once
+    the slow-down for it has begun; 1 until then."""
+    slow_speed: float | None = None
+    """The speed (m/s) the current line's corner is taken at, once the slow-down has begun."""
+    turning = 1.0
+    """The thrust fraction kept while the current line's planned entry is flown: the one the
+    line before slowed to for the corner between them."""
+
     def current_lead(self) -> float:
         """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
+        return self.lead_at(self.speed_source().speed or 0.0)
+
+    def lead_at(self, speed: float) -> float:
+        """The carrot's lead at ``speed`` (m/s): ``lead``, or ``lead_time`` of it, at least
+        ``MIN_LEAD``."""
         if self.lead is not None:
             return self.lead
-        speed = self.speed_source().speed
-        return max(MIN_LEAD, self.lead_time * (speed or 0.0))
+        return max(MIN_LEAD, self.lead_time * speed)
 
     def speed_source(self) -> Speedometer:
         if self.speedometer is None:
@@ -360,9 +383,12 @@ class RouteTask(SteeringTask):
         self.index = -1  # the target steered for; -1 until the first tick with a position
         self.segment_start_time = now
         self.flown = ()
+        self.slowing = self.turning = 1.0
+        self.slow_speed = None
 
     def resume(self, now: float | None = None) -> None:
         super().resume(now)
+        self.slowing, self.slow_speed = 1.0, None
         if self.follower is not None:
             self.follower.reset()
 
@@ -404,7 +430,7 @@ class RouteTask(SteeringTask):
             return self.flown[-1][0]
         return None
 
-    def turn_in(self, k: int) -> float:
+    def turn_in(self, k: int, speed: float | None = None) -> float:
         """How far before target k to start the line after it, in metres, as a skipper turns
         in before a corner so as to come out of the turn on the new line rather than swing
         past it: where the route plans its turns, ``turn_plan.turn_in``; elsewhere, and at
@@ -412,7 +438,7 @@ class RouteTask(SteeringTask):
         turn of Δ onto the next line, the carrot then on the new line as far ahead as the
         vehicle is off it, at most one Lead; onto a longer line, also the way run during the
         heading loop's lag, ``TURN_LAG_S`` of the speed, times sin Δ; at most half of either
-        line). 0 at the last target."""
+        line). 0 at the last target. ``speed``: at that speed (m/s), not the one measured."""
         p2, after = self.target(k), self.after(k)
         follower = self.follower
         if p2 is None or after is None or follower is None:
@@ -420,15 +446,63 @@ class RouteTask(SteeringTask):
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
-        speed = self.speed_source().speed or 0.0
+        if speed is None:
+            speed = self.speed_source().speed or 0.0
+            slow = self.corner_speed() if k == self.index else None
+            if slow is not None:    # the turn is made at the corner's speed
+                speed = min(speed, slow)
+        lead = self.lead_at(speed)
         if self.plans_turns:
             planned = turn_plan.turn_in(self.line_before(follower.p1), follower.p1, p2, after,
-                                        self.beyond(k), self.current_lead(),
-                                        TURN_LAG_S * speed)
+                                        self.beyond(k), lead, TURN_LAG_S * speed)
             if planned is not None:
                 return planned
-        return turn_in_distance(self.current_lead(), math.radians(min(turn, 90.0)),
+        return turn_in_distance(lead, math.radians(min(turn, 90.0)),
                                 distance(p2, after), follower.length, speed)
+
+    def corner_fraction(self) -> float:
+        """The fraction of its thrust the route asks for now (``corner_speed``): the one the
+        last corner was slowed for while its planned entry is flown, then that of the corner
+        ahead once within its braking distance of where that corner's turn, at the slower
+        speed, starts; 1 where there is no sharp corner."""
+        follower = self.follower
+        if follower is not None and follower.entry is not None and self.turning < 1.0:
+            return self.turning
+        self.turning = 1.0
+        slow = self.corner_speed()
+        speed = self.speed_source().speed
+        if self.slowing < 1.0 or slow is None or not speed or follower is None:
+            return self.slowing
+        if follower.length - follower.along <= \
+                self.turn_in(self.index, slow) + corner_speed.braking_distance(speed, slow):
+            self.slowing = min(1.0, slow / speed)
+            self.slow_speed = slow
+        return self.slowing
+
+    def corner_speed(self) -> float | None:
+        """The speed (m/s) to take the current line's corner at (``corner_speed.fraction`` of
+        the speed measured, until the slow-down begins), or None at full speed: no sharp
+        corner, a fixed Lead (the arc would not tighten), turns not planned, or no thrust of
+        its own to lower (steering only: the line is left where the turn at the speed measured
+        starts)."""
+        if self.slow_speed is not None:
+            return self.slow_speed
+        follower = self.follower
+        if follower is None or not self.plans_turns or self.lead is not None or \
+                self.thrust is None or self.thrust <= 0.0:
+            return None
+        p2, after = self.target(self.index), self.after(self.index)
+        speed = self.speed_source().speed
+        if p2 is None or after is None or not speed:
+            return None
+        turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
+        share = corner_speed.fraction(turn, speed, self.lead_time, MIN_LEAD)
+        return share * speed if share < 1.0 else None
+
+    def slowed_for(self, k: int) -> float:
+        """The thrust fraction the line before the one to target k was slowed to for the corner
+        between them (``corner_fraction``), kept while the turn onto the new line is flown."""
+        return self.slowing
 
     # ---- driving -------------------------------------------------------------------------
 
@@ -444,6 +518,8 @@ class RouteTask(SteeringTask):
         if p2 is None:
             self.follower = None
             return False
+        slowed = self.slowed_for(k)
+        self.slowing, self.slow_speed = 1.0, None
         lead = self.current_lead()
         self.follower = LineFollower(p1, p2, lead)
         if entry_from is not None and self.plans_turns:
@@ -452,6 +528,7 @@ class RouteTask(SteeringTask):
                 else None
             self.follower.entry = turn_plan.entry_path(before, entry_from, p1, p2,
                                                        self.after(k), lead)
+        self.turning = slowed if self.follower.entry is not None else 1.0
         self.segment_start_time = now
         self.begin(k, now)
         return True
@@ -488,7 +565,10 @@ class RouteTask(SteeringTask):
         follower.ahead = TURN_LAG_S * (self.speed_source().speed or 0.0)
         heading = follower.heading((nav.x, nav.y), now if t is None else t)
         self.post(f"{self.name}_XTE", round(follower.xte, 3))
-        return self.drive(heading, nav)
+        votes = self.drive(heading, nav)
+        if votes.get("THRUST", 0.0) > 0.0:
+            votes["THRUST"] *= self.corner_fraction()
+        return votes
 
 
 class TrackLine(RouteTask):
@@ -557,6 +637,12 @@ class TrackLine(RouteTask):
                 abs(follower.entry.locate(here)[1]) > follower.lead:
             follower.entry = None
         return started
+
+    def slowed_for(self, k: int) -> float:
+        """The first line's corner was slowed for by the TrackLine before, if it is chained."""
+        if k == 0 and self.previous is not None:
+            return self.previous.slowing
+        return super().slowed_for(k)
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:

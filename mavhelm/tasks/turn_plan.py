@@ -11,7 +11,8 @@ U-turn over a 20 m join, flown by pursuit, rate-limited at 62 deg/s and overshot
 The radius is the route's Lead (LeadTime × speed: a turn at 1 / LeadTime rad/s, 38 deg/s at the
 default 1.5 s, within the SITL boats' 50–60 deg/s at 5 m/s), smaller where the arc would not
 fit in half of either line (a survey's join: both of its corners' arcs, and the straight
-between, fit in it).
+between, fit in it). Before a corner of more than 90° the route slows down (``corner_speed``) so
+that its arc, of the Lead at the slower speed, is tight.
 
 The entry path is flown as a line is: the heading asked is the path's direction at the
 vehicle's projection on it, ``ahead`` metres further on (the heading loop's lag run at the
