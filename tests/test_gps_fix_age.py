@@ -11,20 +11,15 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
-from mavhelm.companion.bridge.handlers import handle
 from mavhelm.companion.bridge.readings import MAX_FIX_AGE, fix_age
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
-from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
 from mavhelm.nav.ekf import I_VH, EKFConfig, Yaw
 from mavhelm.nav.fusion import Fusion, FusionConfig, Start
 from mavhelm.nav.navigator import Navigator
 from mavhelm.nav.sensors import SensorReader, SensorSpec
-from tests.support.ports import free_udp_port
-
-ORIGIN = Origin(56.4120, -5.4760)
+from tests.support.bridge_rig import ORIGIN, BridgeRig
 
 
 def test_fix_age_is_the_autopilot_clock_less_time_usec_when_that_is_its_clock() -> None:
@@ -36,30 +31,18 @@ def test_fix_age_is_the_autopilot_clock_less_time_usec_when_that_is_its_clock() 
     assert fix_age(100.0, int((100.0 - MAX_FIX_AGE - 0.5) * 1e6)) is None
 
 
-def _decoded(sender: mavlink.MAVLink, msg: mavlink.MAVLink_message) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink(None).decode(bytearray(msg.pack(sender)))
-
-
 def test_the_bridge_posts_gps_age_with_the_fix() -> None:
-    clock = SimClock(100.0)
-    bus = Bus(clock)
-    bus.subscribe("test", ["*"])
-    bridge = MavlinkBridge(bus, BridgeConfig(connect=f"udpin:127.0.0.1:{free_udp_port()}"), ORIGIN)
-    autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    rig = BridgeRig()
     lat, lon = int(ORIGIN.lat * 1e7), int(ORIGIN.lon * 1e7)
 
-    def gps(time_usec: int) -> dict[str, float]:
-        handle(bridge, _decoded(autopilot, mavlink.MAVLink_gps_raw_int_message(
-            time_usec, mavlink.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, 100, 100, 300, 9000, 10)),
-            clock.now())
-        return {m.name: m.value for m in bus.fetch("test") if m.name.startswith("GPS_")}
+    def gps(time_usec: int) -> dict[str, float | str]:
+        rig.hear(mavlink.MAVLink_gps_raw_int_message(
+            time_usec, mavlink.GPS_FIX_TYPE_3D_FIX, lat, lon, 0, 100, 100, 300, 9000, 10))
+        return {m.name: m.value for m in rig.posted() if m.name.startswith("GPS_")}
 
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_heartbeat_message(
-        mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 15, 4, 3)),
-        clock.now())
+    rig.boat_heartbeat()
     assert "GPS_AGE" not in gps(50_000_000)  # the autopilot's clock not heard yet
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
-        60_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)), clock.now())
+    rig.hear(mavlink.MAVLink_attitude_message(60_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0))
     posted = gps(59_820_000)
     assert posted["GPS_AGE"] == pytest.approx(0.18)
     assert {"GPS_X", "GPS_Y"} <= set(posted)
@@ -71,23 +54,15 @@ def test_a_fix_read_late_in_a_batch_is_aged_on_the_lined_up_clock() -> None:
     """A link that delivers in batches: the ATTITUDE at 60.0 s was heard at once, the next
     batch (an ATTITUDE at 60.1 s, a fix taken at 59.98 s) 0.07 s after 60.1 s. The newest clock
     read says the fix is 0.12 s old; the clocks lined up on the least late message say 0.19."""
-    clock = SimClock(100.0)
-    bus = Bus(clock)
-    bus.subscribe("test", ["*"])
-    bridge = MavlinkBridge(bus, BridgeConfig(connect=f"udpin:127.0.0.1:{free_udp_port()}"), ORIGIN)
-    autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_heartbeat_message(
-        mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 15, 4, 3)),
-        clock.now())
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
-        60_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)), clock.now())
-    clock.advance(0.17)
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
-        60_100, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)), clock.now())
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_gps_raw_int_message(
+    rig = BridgeRig()
+    rig.boat_heartbeat()
+    rig.hear(mavlink.MAVLink_attitude_message(60_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0))
+    rig.clock.advance(0.17)
+    rig.hear(mavlink.MAVLink_attitude_message(60_100, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0))
+    rig.hear(mavlink.MAVLink_gps_raw_int_message(
         59_980_000, mavlink.GPS_FIX_TYPE_3D_FIX, int(ORIGIN.lat * 1e7), int(ORIGIN.lon * 1e7),
-        0, 100, 100, 300, 9000, 10)), clock.now())
-    posted = {m.name: m.value for m in bus.fetch("test")}
+        0, 100, 100, 300, 9000, 10))
+    posted = {m.name: m.value for m in rig.posted()}
     assert posted["INS_AGE"] == pytest.approx(0.07)
     assert posted["GPS_AGE"] == pytest.approx(0.19)
 

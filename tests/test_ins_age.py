@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.bridge import BridgeConfig, MavlinkBridge
-from mavhelm.companion.bridge.handlers import handle
 from mavhelm.companion.bridge.lateness import MAX_LATE_S, WINDOW_S, Lateness, sane
 from mavhelm.companion.tune import TuneWatch
 from mavhelm.core.bus import Bus, Message
@@ -21,7 +19,7 @@ from mavhelm.core.geodesy import Origin
 from mavhelm.tuning.identify import Recording
 from mavhelm.tuning.manoeuvre import Box
 from mavhelm.tuning.model import Series, YawModel, fit_yaw, simulate_lag
-from tests.support.ports import free_udp_port
+from tests.support.bridge_rig import BridgeRig
 
 ORIGIN = Origin(56.4120, -5.4760)
 
@@ -49,40 +47,30 @@ def test_sane_keeps_a_lateness_to_correct_by() -> None:
     assert sane(-0.01) is None
 
 
-def _decoded(sender: mavlink.MAVLink, msg: mavlink.MAVLink_message) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink(None).decode(bytearray(msg.pack(sender)))
-
-
 def test_the_bridge_posts_ins_age_with_each_attitude_before_its_turn_rate() -> None:
-    clock = SimClock(100.0)
-    bus = Bus(clock)
-    bus.subscribe("test", ["*"])
-    bridge = MavlinkBridge(bus, BridgeConfig(connect=f"udpin:127.0.0.1:{free_udp_port()}"), ORIGIN)
-    autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    rig = BridgeRig()
 
     def attitude(time_boot_ms: int, yawspeed: float = 0.2) -> list[Message]:
-        handle(bridge, _decoded(autopilot, mavlink.MAVLink_attitude_message(
-            time_boot_ms, 0.0, 0.0, 0.5, 0.0, 0.0, yawspeed)), clock.now())
-        return [m for m in bus.fetch("test") if m.name.startswith("INS_")]
+        rig.hear(mavlink.MAVLink_attitude_message(time_boot_ms, 0.0, 0.0, 0.5, 0.0, 0.0,
+                                                  yawspeed))
+        return [m for m in rig.posted() if m.name.startswith("INS_")]
 
     first = attitude(60_000)
     assert [m.name for m in first][:1] == ["INS_AGE"]
     assert first[0].value == 0.0
     # two read in one batch at the same stamp: the first was sent 0.1 s before the second
-    clock.advance(0.2)
+    rig.clock.advance(0.2)
     older, newer = attitude(60_100), attitude(60_200)
     age = {m.name: m for m in older}["INS_AGE"]
     assert age.value == pytest.approx(0.1)
     assert age.time == {m.name: m for m in older}["INS_YAW_VEL"].time  # one stamp
     assert {m.name: m.value for m in newer}["INS_AGE"] == pytest.approx(0.0)
     # heard seconds after its time (a stall): no age to correct by
-    clock.advance(3.0)
+    rig.clock.advance(3.0)
     assert "INS_AGE" not in {m.name for m in attitude(60_300)}
     # a message without an autopilot clock leaves no lateness for the next handler
-    handle(bridge, _decoded(autopilot, mavlink.MAVLink_heartbeat_message(
-        mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 15, 4, 3)),
-        clock.now())
-    assert bridge.state.late is None
+    rig.boat_heartbeat()
+    assert rig.bridge.state.late is None
 
 
 def test_the_watch_places_each_turn_rate_when_the_autopilot_took_it() -> None:

@@ -16,6 +16,7 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import parse_mission
 from mavhelm.nav.navigator import Navigator
+from tests.support.mission import EKF_GPS_COMPASS
 
 
 class MemoryLog:
@@ -68,14 +69,7 @@ def circle(t: float, r: float = 50.0, speed: float = 2.0) -> tuple[float, float,
     return x, y, a
 
 
-GPS_COMPASS = """
-  X = EKF @ 2
-  Y = EKF @ 2
-  Yaw = EKF @ 2
-  Speed = EKF @ 2
-  SENSOR_XY = GPS -> gps @ 0,0,0 ~ 2.0
-  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
-"""
+GPS_COMPASS = EKF_GPS_COMPASS
 
 
 def test_gps_and_compass_give_a_smoother_position_and_speed_from_positions_only() -> None:

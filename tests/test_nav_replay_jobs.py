@@ -12,17 +12,9 @@ import numpy as np
 
 from mavhelm.companion.alog import format_line
 from mavhelm.core.bus import Message
+from tests.support.mission import EKF_GPS_COMPASS
 
-MISSION = """ProcessConfig = pNav
-{
-  X = EKF @ 2
-  Y = EKF @ 2
-  Yaw = EKF @ 2
-  Speed = EKF @ 2
-  SENSOR_XY = GPS -> gps @ 0,0,0 ~ 2.0
-  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
-}
-"""
+MISSION = "ProcessConfig = pNav\n{" + EKF_GPS_COMPASS + "}\n"
 
 
 def _write_log(path: Path, seconds: float = 90.0) -> None:

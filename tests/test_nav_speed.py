@@ -11,17 +11,11 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import parse_mission
 from mavhelm.nav.navigator import Navigator
+from tests.support.mission import EKF_GPS_COMPASS
 
 MISSION = """
 ProcessConfig = pNav
-{
-    X = EKF @ 2
-    Y = EKF @ 2
-    Yaw = EKF @ 2
-    Speed = EKF @ 2
-    SENSOR_XY = GPS -> gps @ 0,0,0 ~ 2.0
-    SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
-    FIXEDSIDESLIP = 0 @ 0.3
+{""" + EKF_GPS_COMPASS + """    FIXEDSIDESLIP = 0 @ 0.3
 }
 """
 

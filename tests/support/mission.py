@@ -26,6 +26,16 @@ NAV_AP_FALLBACK: dict[str, str] = {"X": "GPS @ 2.0, AP @ 2.0", "Y": "GPS @ 2.0, 
                                    "Yaw": "INS @ 1.0, AP @ 2.0", "Speed": "GPS @ 2.0, AP @ 2.0"}
 """pNav on GPS and attitude with the autopilot's own estimate (AP_*) as the fall-back."""
 
+EKF_GPS_COMPASS = """
+  X = EKF @ 2
+  Y = EKF @ 2
+  Yaw = EKF @ 2
+  Speed = EKF @ 2
+  SENSOR_XY = GPS -> gps @ 0,0,0 ~ 2.0
+  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
+"""
+"""A pNav block's lines: the EKF on the autopilot's GPS (2 m) and compass (1°)."""
+
 Options = Mapping[str, object] | Iterable[tuple[str, object]]
 """A block's settings: a mapping, or (key, value) pairs where a key repeats (``Stream``)."""
 
