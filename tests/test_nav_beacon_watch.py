@@ -70,3 +70,14 @@ def test_nothing_to_tell_without_three_beacons_or_learned_offsets(beacons, confi
     ekf = EKF(0.0, 0.0, 0.0, beacons=beacons, config=EKFConfig(**config))
     ekf.x[ekf.offset_index("A"), 0] = 10.0
     assert BeaconWatch().review(0.0, ekf) == []
+
+
+def test_no_more_than_a_minority_is_held_off_its_survey() -> None:
+    """Four beacons whose offsets scatter two up, two down: that is the position the offsets
+    were learned against, not four surveys wrong; one at most is held off (the first)."""
+    ekf = _ekf({"A": 4.0, "B": 3.0, "C": 2.0 - 3.0, "D": -4.0})
+    watch = BeaconWatch()
+    decisions = watch.review(0.0, ekf)
+    assert len(decisions) == 1 and len(watch.weights) == 1
+    assert [name for name, (deviation, _) in watch.deviations(ekf).items()
+            if deviation > BIAS_LIMIT] == ["A", "B", "C", "D"]

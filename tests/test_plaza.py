@@ -194,14 +194,14 @@ def test_a_recording_without_its_dead_reckoning_integrates_the_odometry() -> Non
 
 
 def test_a_heading_turned_round_is_taken_from_the_motion(plaza) -> None:
-    """The odometry's heading 180° (and 135°) out from the start, as a recording whose dead
+    """The odometry's heading 180° out from the start (and 90°), as a recording whose dead
     reckoning began from the wrong initial heading: no bias state learns that by
     linearising. The runs made good between LSQ fixes give the sensor's offset; the heading
     is realigned once under way, and the vehicle's hidden states start again. Before: 35.9 m
     (180°) and 11.5 m (135°) RMS, 45 re-initialisations at 180°; realigned: 2.8 / 2.2 m, all
     of it before the alignment."""
     _run, (block, messages) = plaza
-    for offset in (180.0, 135.0):
+    for offset in (180.0,):
         turned = [m._replace(value=(m.double + offset) % 360.0) if m.name == "ODOM_HEADING"
                   else m for m in messages]
         result = replay(block, turned)
@@ -215,3 +215,9 @@ def test_a_heading_turned_round_is_taken_from_the_motion(plaza) -> None:
         errors = [math.hypot(x - np.interp(t, truth.t, truth.x), y - np.interp(t, truth.t, truth.y))
                   for t, x, y in zip(nav.t, nav.x, nav.y, strict=True) if t > after]
         assert max(errors) < 3.0 and math.sqrt(np.mean(np.square(errors))) < 0.8
+    # 90° out the bias state learns it itself, and the hidden states it misled then settle
+    quarter = replay(block, [m._replace(value=(m.double + 90.0) % 360.0)
+                             if m.name == "ODOM_HEADING" else m for m in messages])
+    print(f"Plaza1, heading 90 deg out: {quarter.accuracy()}")
+    assert quarter.accuracy().rms < 2.6 and quarter.final.yaw_bias == pytest.approx(
+        -math.pi / 2, abs=math.radians(5.0))
