@@ -293,8 +293,9 @@ def test_rc_override_drives_in_manual_on_the_switch_and_releases_at_once(real_si
     assert online and online[0].value == 1.0, "HELM_ONLINE 1 first, on the switch"
     first_cmd = named(log, "AP_CMD_RC_THROTTLE")[0]
     assert first_cmd.time >= online[0].time, "nothing overridden before the switch"
-    # the switch refreshed far inside RC_OVERRIDE_TIME
-    assert max(gaps) <= 1000, gaps
+    # the switch refreshed inside RC_OVERRIDE_TIME, so the override never lapsed (the test's
+    # own refreshes: a loaded machine stalled them 1.6 autopilot s at x10 once, in CI)
+    assert max(gaps) < RC_OVERRIDE_TIME_S * 1000, gaps
     # engaged: ArduPilot obeyed the companion's override, the boat went east
     assert throttle_cmds == [1800], "60 % of RC3 1000..1500..2000"
     assert rc3_driven == throttle_cmds, "RC_CHANNELS ch3 is the companion's override"
