@@ -35,28 +35,22 @@ RUN: Final = 8.0
 """m: the shortest run a course made good is measured over (a 1 m fix error is 6° on it)."""
 MAX_TURN: Final = math.radians(20.0)
 """rad: a run whose headings stray further than this from their mean was a turn."""
+STRAIGHT: Final = math.cos(MAX_TURN)
+"""The cosine of a reading's angle from the run's mean heading, at least, in a straight run."""
 SAMPLES: Final = 3
 """Runs (one per new fix) that must agree before the offset is believed."""
 MAX_SPREAD: Final = math.radians(15.0)
 """rad: their circular spread at most."""
-
-
-def wrap(a: float) -> float:
-    return math.remainder(a, 2.0 * math.pi)
+HEADING_EVERY: Final = 0.2
+FIX_EVERY: Final = 0.5
+"""s: readings and fixes closer in time to the last one kept are not kept: a run's mean is as
+well told by 5 headings a second, and 2 runs a second are plenty to agree on; a 20 Hz heading
+and a 5 Hz GPS would otherwise cost a pass over a hundred readings five times a second."""
 
 
 def course_yaw(dx: float, dy: float) -> float:
     """The course of a run (dx east, dy north) as a yaw (rad, yaw = −heading)."""
     return -math.atan2(dx, dy)
-
-
-def circular_mean(angles: list[float]) -> tuple[float, float]:
-    """(mean, circular standard deviation) of angles in radians."""
-    s = sum(math.sin(a) for a in angles) / len(angles)
-    c = sum(math.cos(a) for a in angles) / len(angles)
-    r = min(math.hypot(s, c), 1.0)
-    spread = math.sqrt(-2.0 * math.log(r)) if r > 0.0 else math.inf
-    return math.atan2(s, c), spread
 
 
 @dataclass(frozen=True)
@@ -72,66 +66,106 @@ class Alignment:
 
 
 class MotionAlignment:
-    """``add_fix``, ``add_heading`` and ``add_forward`` as data come (in time order);
-    ``estimate(t)`` when asked; ``clear()`` once an estimate has been used."""
+    """``add_fix``, ``add_heading`` and ``add_body_velocity`` as data come (in time order);
+    ``estimate()`` when asked (kept until the next run); ``clear()`` once one has been used.
+    Each queue keeps ``WINDOW`` seconds, so the work per reading is bounded by its run."""
 
     def __init__(self) -> None:
         self._fixes: deque[tuple[float, float, float]] = deque()
-        self._headings: deque[tuple[float, float]] = deque()
+        self._headings: deque[tuple[float, float, float]] = deque()
+        """(t, sine, cosine) of each reading less the bias held, computed once."""
         self._astern: deque[float] = deque()
-        self._runs: deque[tuple[float, float]] = deque()
+        self._runs: deque[tuple[float, float, float]] = deque()
+        """(t, sine, cosine) of each run's correction; their sums kept as runs come and go."""
+        self._sums = (0.0, 0.0)
         self._velocity = (0.0, 0.0)
+        self._estimate: Alignment | None = None
+        self._fresh = True
 
     def clear(self) -> None:
         self._fixes.clear()
         self._headings.clear()
         self._astern.clear()
         self._runs.clear()
+        self._sums = (0.0, 0.0)
+        self._estimate, self._fresh = None, True
 
     def add_heading(self, t: float, yaw: float, bias: float = 0.0) -> None:
         """A reading of the orientation sensor (rad, yaw = −heading) and the heading bias
         the filter holds for it then."""
-        self._headings.append((t, yaw - bias))
+        headings = self._headings
+        if headings and t - headings[-1][0] < HEADING_EVERY:
+            return
+        a = yaw - bias
+        headings.append((t, math.sin(a), math.cos(a)))
+        while headings[0][0] < t - WINDOW:
+            headings.popleft()
 
     def add_body_velocity(self, t: float, forward: float, starboard: float | None) -> None:
         """A body-velocity reading (m/s): going astern, or crabbing beyond ``MAX_TURN``, the
         course is not the heading."""
         if forward < 0.0 or (starboard is not None
                              and abs(math.atan2(starboard, forward)) > MAX_TURN):
-            self._astern.append(t)
+            astern = self._astern
+            astern.append(t)
+            while astern[0] < t - WINDOW:
+                astern.popleft()
 
     def add_fix(self, t: float, x: float, y: float) -> None:
         """A position fix; a run ending at it is measured when one long enough exists."""
-        fixes = self._fixes
-        for queue in (fixes, self._headings, self._astern, self._runs):
-            while queue and _time(queue[0]) < t - WINDOW:
-                queue.popleft()
+        fixes, runs = self._fixes, self._runs
+        if fixes and t - fixes[-1][0] < FIX_EVERY:
+            return
+        while fixes and fixes[0][0] < t - WINDOW:
+            fixes.popleft()
+        while runs and runs[0][0] < t - WINDOW:
+            _, sr, cr = runs.popleft()
+            self._sums = (self._sums[0] - sr, self._sums[1] - cr)
+            self._fresh = False
         start = next((f for f in reversed(fixes) if math.hypot(x - f[1], y - f[2]) >= RUN), None)
         fixes.append((t, x, y))
         if start is None or start[0] >= t:
             return
         t0, x0, y0 = start
-        if any(t0 <= ta <= t for ta in self._astern):
+        if any(t0 <= ta <= t for ta in _since(self._astern, t0)):
             return
-        readings = [yaw for th, yaw in self._headings if t0 <= th <= t]
+        readings = [(sa, ca) for th, sa, ca in _since(self._headings, t0) if th <= t]
         if len(readings) < 2:
             return
-        mean, _ = circular_mean(readings)
-        if max(abs(wrap(a - mean)) for a in readings) > MAX_TURN:
+        mean = math.atan2(sum(sa for sa, _ in readings), sum(ca for _, ca in readings))
+        sm, cm = math.sin(mean), math.cos(mean)
+        if min(ca * cm + sa * sm for sa, ca in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
         dx, dy = x - x0, y - y0
-        self._runs.append((t, wrap(mean - course_yaw(dx, dy))))
+        correction = mean - course_yaw(dx, dy)
+        sr, cr = math.sin(correction), math.cos(correction)
+        runs.append((t, sr, cr))
+        self._sums = (self._sums[0] + sr, self._sums[1] + cr)
         self._velocity = (dx / (t - t0), dy / (t - t0))
+        self._fresh = False
 
     def estimate(self) -> Alignment | None:
         """The correction, once ``SAMPLES`` runs agree within ``MAX_SPREAD``; else None."""
-        if len(self._runs) < SAMPLES:
-            return None
-        correction, spread = circular_mean([o for _, o in self._runs])
-        if spread > MAX_SPREAD:
-            return None
-        return Alignment(correction, spread, len(self._runs), self._velocity)
+        if self._fresh:
+            return self._estimate
+        self._fresh, self._estimate = True, None
+        n = len(self._runs)
+        if n >= SAMPLES:
+            s, c = self._sums[0] / n, self._sums[1] / n
+            r = min(math.hypot(s, c), 1.0)
+            spread = math.sqrt(-2.0 * math.log(r)) if r > 0.0 else math.inf
+            if spread <= MAX_SPREAD:
+                self._estimate = Alignment(math.atan2(s, c), spread, n, self._velocity)
+        return self._estimate
 
 
-def _time(item: tuple[float, ...] | float) -> float:
-    return item if isinstance(item, float) else item[0]
+def _since(queue: deque, t0: float) -> list:
+    """The entries of a time-ordered queue (times first, or times themselves) from ``t0``
+    on, found from the newest end."""
+    out = []
+    for item in reversed(queue):
+        if (item if isinstance(item, float) else item[0]) < t0:
+            break
+        out.append(item)
+    out.reverse()
+    return out
