@@ -222,10 +222,10 @@ class Fusion:
         self.noise = NoiseMatch()
         self.beacon_watch = BeaconWatch()
         self.alignment = MotionAlignment()
-        self._last_fix: tuple[float, float, float] | None = None
-        """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
         """The orientation sensor's offset from the course made good, for a heading far out
         (:meth:`_align`)."""
+        self._last_fix: tuple[float, float, float] | None = None
+        """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""
@@ -539,7 +539,9 @@ class Fusion:
         not in step with its 5 Hz fixes: 0-0.2 s, the same all run long, on the real SITL)
         moved on along the filter's velocity to where the vehicle was at the stamp, its σ
         widened by the velocity's own over that time. Left as stamped, the estimate trails
-        the vehicle by the age times the speed, a bias no σ told (NEES 2.4-2.6)."""
+        the vehicle by the age times the speed, a bias no σ told (NEES 2.4-2.6). A heading
+        ``r.age`` old is given its age instead: the filter predicts it as the heading then
+        (:class:`~mavhelm.nav.ekf.Yaw`)."""
         obs, ekf = r.obs, self.ekf
         if not r.age or ekf is None or not ekf.config.mobile:
             return obs

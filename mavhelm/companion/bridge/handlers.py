@@ -34,6 +34,7 @@ from mavhelm.core.thirdparty import REQUEST_VARIABLE, TUNNEL_PAYLOAD_TYPE
 
 if TYPE_CHECKING:
     from mavhelm.companion.bridge.facade import MavlinkBridge
+    from mavhelm.companion.bridge.state import AutopilotState
 
 Post = Callable[[str, float | str], None]
 """Posts a variable with the message's one time stamp."""
@@ -189,16 +190,21 @@ def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     _check_distance(bridge, x, y)
     post("GPS_X", x)
     post("GPS_Y", y)
-    state = bridge.state
-    clock = state.lateness.autopilot_time(state.heard_at) if state.heard_at is not None else None
-    age = fix_age(state.boot_s if clock is None else max(clock, state.boot_s or clock),
-                  msg.time_usec)
+    age = fix_age(_heard_on_autopilot_clock(bridge.state), msg.time_usec)
     if age is not None:
         post("GPS_AGE", age)
     if msg.vel != UNKNOWN_U16:
         post("GPS_SPEED", msg.vel / 100.0)
     if msg.cog != UNKNOWN_U16:
         post("GPS_HEADING", msg.cog / 100.0)
+
+
+def _heard_on_autopilot_clock(state: AutopilotState) -> float | None:
+    """The autopilot's clock when the message being handled was heard: as the least late
+    recent message lines the clocks up, never before the newest clock read."""
+    known = [t for t in (state.boot_s, None if state.heard_at is None
+                         else state.lateness.autopilot_time(state.heard_at)) if t is not None]
+    return max(known) if known else None
 
 
 def _check_distance(bridge: MavlinkBridge, x: float, y: float) -> None:
