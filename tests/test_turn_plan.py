@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from mavhelm.tasks import turn_plan
+from mavhelm.tasks.pid import HelmGains
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.survey import Survey
-from mavhelm.tasks.trackline import TURN_LAG_S, TrackLine, link_track_lines
+from mavhelm.tasks.trackline import TURN_LAG_S, LineFollower, TrackLine, link_track_lines
 from mavhelm.tasks.turn_plan import Arc, corner_arc, entry_path, is_u_turn, u_turn_arc
 from tests.support.task_rig import TBlock, nav_at, task_block
 
@@ -224,3 +225,29 @@ def test_a_chained_trackline_started_far_from_its_planned_turn_flies_its_line(
     then.step(nav_at(1.0, x=where[0], y=where[1], heading=180.0, speed=2.0), 1.0)
     assert then.follower is not None
     assert (then.follower.entry is not None) == planned
+
+
+def test_past_a_u_turns_half_circle_the_join_is_done() -> None:
+    """The half circle ends at the join's end: a vehicle past it, still more than the capture
+    radius from that end, is on the line out, and is not steered along the join (square off
+    the line out: full rudder the wrong way, 1.5 m wide at 5 m/s on a kinematic boat)."""
+    join = LineFollower((120.0, 0.0), (120.0, -20.0), 7.5)
+    join.entry = u_turn_arc((20.0, 0.0), (120.0, 0.0), (120.0, -20.0))
+    past = (119.6, -19.0)                       # 1.1 m from the join's end, 19 m along it
+    assert join.entry.done(past)
+    assert join.reached(past, 1.0)
+    halfway = (130.0, -10.0)
+    assert not join.reached(halfway, 1.0)
+    corner = LineFollower((0.0, 0.0), (100.0, 0.0), 7.5)   # a corner's arc ends on the line
+    corner.entry = corner_arc((0.0, 50.0), (0.0, 0.0), (100.0, 0.0), 7.5)
+    assert corner.entry is not None and corner.entry.done((8.0, 0.1))
+    assert not corner.reached((8.0, 0.1), 1.0)
+
+
+def test_a_stiffer_loop_comes_out_of_the_u_turn_on_the_line() -> None:
+    """YAW_PID_KP 1.0 with no KD (the skid boat's best on the real SITL) on the kinematic boat
+    at 5 m/s: it left the half circle 1.1 m from the join's end and swung 0.93 m."""
+    task = survey(task_block, "7.5")
+    task.gains = HelmGains(yaw_kp=1.0, yaw_kd=0.0)
+    task.yaw_pid = task.gains.yaw_pid()
+    assert worst_on_legs(fly(task, 5.0)) < 0.3

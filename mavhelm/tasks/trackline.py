@@ -277,9 +277,15 @@ class LineFollower:
         self.along, self.xte = track_position(self.p1, self.p2, p)
 
     def reached(self, p: Point2, radius: float) -> bool:
-        """Within ``radius`` of P2, or past the end of the line along it."""
+        """Within ``radius`` of P2, past the end of the line along it, or past the end of an
+        entry path that ends at P2 (a U-turn's half circle: its join is then flown whole, and
+        steering on along the join would turn the vehicle square off the line out)."""
         self.measure(p)
-        return distance(p, self.p2) < radius or self.along >= self.length
+        if distance(p, self.p2) < radius or self.along >= self.length:
+            return True
+        entry = self.entry
+        return entry is not None and distance(entry.end, self.p2) < DEGENERATE \
+            and entry.done(p)
 
     def heading(self, p: Point2, t: float) -> float:
         """Desired heading (degrees) for a vehicle at ``p`` whose position was measured at ``t``."""
