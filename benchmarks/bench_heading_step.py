@@ -38,24 +38,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from benchmarks.bench_tracking import (
-    CALM,
-    HOME_HEADING,
-    LAT0,
-    LON0,
-    SPEEDUP,
-    WIND,
-    ask_for_truth,
-    ports_of,
-    product_defaults,
-)
-from tests.support.ardupilot import (
-    SKIP_REASON,
-    CompanionProcess,
-    RealOperator,
-    RealSitl,
-    ardupilot_binary,
-)
+from benchmarks.bench_tracking import CALM, LAT0, LON0, WIND, fly_real, product_defaults
+from tests.support.ardupilot import SKIP_REASON, ardupilot_binary
 from tests.support.mission import NAV_AP_FALLBACK
 from tests.support.mission import mission_text as standard_mission
 
@@ -66,8 +50,6 @@ ONSET = 3.0
 """Degrees the yaw must move towards the new heading for the step to count as begun."""
 WITHIN = 2.0
 """Degrees: the step is settled once the yaw stays this close to the new heading."""
-HAND_OVER_WALL_S = 60.0
-MISSION_WALL_S = 100.0
 
 
 @dataclass(frozen=True)
@@ -129,26 +111,14 @@ def measure(yaw: list[tuple[float, float]]) -> list[StepFigures]:
 
 def fly(binary: Path, folder: Path, model: str, params: dict[str, float], kp: float, kd: float,
         max_turn_rate: float) -> list[tuple[float, float]]:
-    """Fly the steps on a fresh SITL; the truth's yaw over the mission."""
+    """Fly the steps on a fresh SITL; the truth's (autopilot s, yaw degrees) after the
+    hand-over."""
     mission = folder / "steps.moos"
     mission.write_text(steps_mission(kp, kd, max_turn_rate))
-    with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
-                  home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
-            RealOperator(ports_of(sitl).serial0, heartbeat_s=1.0 / SPEEDUP) as op:
-        ask_for_truth(op)
-        sitl.wait_listening(ports_of(sitl).serial1)
-        companion = CompanionProcess(mission, ports_of(sitl).serial1, folder / "companion")
-        try:
-            op.hand_over("GUIDED", timeout_s=HAND_OVER_WALL_S, retry_s=1.0 / SPEEDUP)
-            online = op.handed_over_wall or 0.0
-            op.wait_until(lambda: companion.find("MISSION ENDED") is not None
-                          or companion.proc.poll() is not None, MISSION_WALL_S,
-                          "MISSION ENDED")
-        finally:
-            companion.stop()
+    flight = fly_real(binary, folder, mission, params, model)
     return [(boot / 1000.0, math.degrees(yaw) % 360.0)
-            for wall, boot, _lat, _lng, yaw in op.simstates
-            if boot is not None and wall >= online]
+            for wall, boot, _lat, _lng, yaw in flight.simstates
+            if boot is not None and wall >= flight.online]
 
 
 def main(argv: list[str] | None = None) -> int:

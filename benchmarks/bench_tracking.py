@@ -470,13 +470,23 @@ def ask_for_truth(op: RealOperator) -> None:
     raise RuntimeError("the autopilot never acknowledged SET_MESSAGE_INTERVAL for SIMSTATE")
 
 
-def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
-             params: dict[str, float], model: str = "motorboat",
-             settle_xte: float = SETTLE_XTE) -> Figures:
-    folder.mkdir(parents=True, exist_ok=True)
-    mission = folder / f"{kind}.moos"
-    mission.write_text(mission_text(kind, helm))
-    origin = Origin(LAT0, LON0)
+@dataclass
+class RealFlight:
+    """A mission flown on a fresh real SITL: the truth the operator heard and when."""
+
+    simstates: list[tuple[float, int | None, int, int, float]]
+    """(wall s, autopilot ms, lat e7, lon e7, yaw rad) of each SIMSTATE."""
+    online: float
+    """Wall time of the hand-over to GUIDED."""
+    ended: float | None
+    """Wall time of MISSION ENDED on the companion's console; None: it exited before."""
+    last_lines: list[str]
+
+
+def fly_real(binary: Path, folder: Path, mission: Path, params: dict[str, float],
+             model: str) -> RealFlight:
+    """Fly ``mission`` on a fresh SITL of ``model``: the operator hands over in GUIDED, the
+    companion runs it (as ``mavhelm run``) until MISSION ENDED, SIMSTATE recorded throughout."""
     with RealSitl(folder / "sitl", binary=binary, model=model, speedup=SPEEDUP,
                   home=(LAT0, LON0, 0, HOME_HEADING), params=params) as sitl, \
             RealOperator(ports_of(sitl).serial0, heartbeat_s=1.0 / SPEEDUP) as op:
@@ -489,19 +499,30 @@ def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
             op.wait_until(lambda: comp.find("MISSION ENDED") is not None
                           or comp.proc.poll() is not None, MISSION_WALL_S, "MISSION ENDED")
             hit = comp.find("MISSION ENDED")
-            ended = hit[0] if hit is not None else None
         finally:
             comp.stop()
-    if ended is None:
+    return RealFlight(list(op.simstates), online, hit[0] if hit is not None else None,
+                      [line for _, line in comp.lines[-5:]])
+
+
+def run_real(binary: Path, folder: Path, kind: str, helm: Helm,
+             params: dict[str, float], model: str = "motorboat",
+             settle_xte: float = SETTLE_XTE) -> Figures:
+    folder.mkdir(parents=True, exist_ok=True)
+    mission = folder / f"{kind}.moos"
+    mission.write_text(mission_text(kind, helm))
+    origin = Origin(LAT0, LON0)
+    flight = fly_real(binary, folder, mission, params, model)
+    if flight.ended is None:
         return Figures(note="the companion exited before MISSION ENDED: "
-                       + " | ".join(line for _, line in comp.lines[-5:]))
+                       + " | ".join(flight.last_lines))
     track = []
-    for wall, boot, lat, lng, _ in op.simstates:
-        if boot is not None and wall >= online:
+    for wall, boot, lat, lng, _ in flight.simstates:
+        if boot is not None and wall >= flight.online:
             x, y = origin.to_local(lat * 1e-7, lng * 1e-7)
             track.append((boot / 1000.0, x, y))
     fig = measure(track, settle_xte)
-    fig.wall_s = ended - online
+    fig.wall_s = flight.ended - flight.online
     span = track[-1][0] - track[0][0] if len(track) > 1 else 0.0
     if span > 0:
         fig.note = f"truth {len(track) / span:.0f} Hz"
