@@ -88,13 +88,15 @@ than the join it replaces), the turns planned (``mavhelm/tasks/turn_plan.py``):
 The 5 m/s rows again after the U-turn's exit was fixed (2026-12-02: past the half circle the
 join is done; before, a boat leaving it more than ``CAPTURE`` from the join's end was steered
 along the join for a few ticks), worse of Survey / TrackLines per run: defaults, motorboat
-0.04–0.05 / 0.10–0.22 calm and 0.06–0.07 / 0.16–0.30 wind, motorboat-skid 0.06–0.08 /
-0.26–0.39 calm (five runs) and 0.07–0.11 / 0.25–0.81 wind (three), rover 0.04–0.05 / 0.15–0.27,
-rover-skid 0.03 / 0.08–0.16 (two runs each); tuned (one tune each), motorboat 0.07–0.08 /
-0.23–0.27 calm and 0.07 / 0.28 wind, motorboat-skid (defaults kept, fit 8.4 and 9.8 deg/s)
-0.07–0.08 / 0.36–0.37 calm and 0.06–0.11 / 0.23–0.53 wind, rover 0.07–0.08 / 0.24–0.28,
-rover-skid 0.04 / 0.15. ``docs/tracking.md`` ("What a line wants of the heading loop") has the
-stiffer loop that holds every model's lines better, and why it is not the default.
+0.04–0.05 / 0.10–0.22 calm and 0.06–0.07 / 0.16–0.30 wind, motorboat-skid 0.06–0.08 / 0.26–0.39
+calm (five runs) and 0.07–0.11 / 0.25–0.81 wind (three), rover 0.04–0.05 / 0.15–0.27 (two
+runs), rover-skid 0.03–0.08 / 0.08–0.77 (seven runs; 0.55 and 0.77 in two of its fourteen
+missions: it slows in the U-turn and comes out swinging across the next leg); tuned (one tune
+each), motorboat 0.07–0.08 / 0.23–0.27 calm and 0.07 / 0.28 wind, motorboat-skid (defaults
+kept, fit 8.4 and 9.8 deg/s) 0.07–0.08 / 0.36–0.37 calm and 0.06–0.11 / 0.23–0.53 wind, rover
+0.07–0.08 / 0.24–0.28, rover-skid 0.04 / 0.15. ``docs/tracking.md`` ("What a line wants of the
+heading loop") has the stiffer loop that holds every model's lines better, and why it is not
+the default.
 
 Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.17 and 0.04 /
 0.17, and earlier 0.04 / 0.14 and 0.06 / 0.52 (one U-turn: the companion's data stopped for
