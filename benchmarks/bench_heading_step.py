@@ -17,9 +17,10 @@ without it, says so and exits 0. Run: ``MAVHELM_ARDUPILOT=../shared/ardupilot/ar
 Measured on 2026-12-02 (WP_SPEED 5, calm, one run each; overshoot per step, then the time to
 stay within 2°):
 
-- motorboat, the defaults (KP 0.75, KD 0.2, MaxTurnRate 90): 1.1–7.3°, 2.2–6.8 s (in the
-  stock wind 2.0–3.7°, 2.2–3.2 s); KP 1.0 with KD 0: 13.1–16.2°, 2.1–2.7 s; the gains the tune
-  wrote for it that day (KP 0.61, KD 0, MaxTurnRate 57): 0–0.7°, 1.0–1.3 s;
+- motorboat, the defaults (KP 0.75, KD 0.2, MaxTurnRate 90): 1.1–7.3°, 2.2–6.8 s; again after a
+  refactor of the flight, 1.5–4.3°, 1.5–2.2 s (in the stock wind 2.0–3.7°, 2.2–3.2 s); KP 1.0
+  with KD 0: 13.1–16.2°, 2.1–2.7 s; the gains the tune wrote for it that day (KP 0.61, KD 0,
+  MaxTurnRate 57): 0–0.7°, 1.0–1.3 s;
 - motorboat-skid, the defaults: 2.5–8.7°, 2.8–6.4 s; KP 1.0 with KD 0: 11.9–22.5°, 2.3–3.9 s;
   the tune's gains from a trusted fit in the wind (KP 0.45, KD 0.045, MaxTurnRate 99):
   0–0.3°, 1.2–1.4 s.
