@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from mavhelm.tasks import turn_plan
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.survey import CAPTURE, Survey
 from mavhelm.tasks.trackline import LineFollower
@@ -28,9 +29,11 @@ def test_a_leg_start_and_a_leg_end_are_turned_in_to(tblock: TBlock, lead, expect
     task.index = 2
     task.follower = LineFollower(task.target(1), task.target(2), task.lead)
     # the arc's turn-in, Lead · tan(45°), at most half the 10 m join (no speed: no lag);
-    # with Lead 3 or 5 the join is a U-turn's (half of it within 0.5-2 Leads), one half
-    # circle beyond the legs' ends that ends on leg 1: the join is flown to its end
-    task.flown = ((task.target(0), task.target(1)),)
+    # with Lead 3 or 5 the join is a U-turn's (half of it within 0.5-2 Leads), entered by one
+    # half circle beyond the legs' ends that ends on leg 1: the join is flown to its end
+    task.follower.entry = turn_plan.entry_path(*(task.target(k) for k in range(4)),
+                                               float(lead), after_half_circle=False)
+    assert turn_plan.is_half_circle(task.follower.entry) == (expected == CAPTURE)
     assert task.capture_radius(2) == pytest.approx(expected)
     # on leg 1 itself: the 90° turn onto the join to leg 2, as far (the join is 10 m)
     task.index = 3

@@ -92,3 +92,34 @@ def test_the_lead_is_lead_time_times_the_speed(tblock: TBlock) -> None:
     fixed.start(0.0)
     drive_east(fixed, 20.0, speed=4.0)
     assert fixed.current_lead() == 6.0, "a Lead given is kept whatever the speed"
+
+
+@pytest.mark.parametrize("dip", [False, True])
+def test_a_u_turn_held_near_its_corner_stays_one_half_circle(tblock: TBlock, dip: bool) -> None:
+    """A U-turn over a 20 m join is one half circle at 4 m/s (Lead 6 m) and two corners below
+    3.3 m/s. A fix stamped late drops the speed measured by a fifth for one tick: near the
+    corner the plan stays a half circle (the two corners' turn would already have started
+    behind the vehicle), the line is left at the half circle's turn-in, and the join is
+    entered by its half circle."""
+    first = line(tblock, "A", "0,0", "100,0", ("FinishFlag", "Join"))
+    join = line(tblock, "B", "100,0", "100,-20", ("StartFlag", "Join"), ("FinishFlag", "Back"))
+    back = line(tblock, "C", "100,-20", "0,-20", ("StartFlag", "Back"))
+    link_track_lines([first, join, back])
+    first.start(0.0)
+    t, x, dt, speed = 1.0, 60.0, 0.2, 4.0
+    left_at = math.inf
+    while x < 100.0:
+        stamp = t + (0.25 if dip and x > 95.0 else 0.0)   # one fix heard 0.25 s late
+        first.step(nav_at(stamp, x=x, y=0.0, heading=90.0), stamp)
+        if not first.active:
+            left_at = x
+            break
+        t += dt
+        x += speed * dt
+    assert first.u_turn_held
+    lag = TURN_LAG_S * 4.0
+    assert 100.0 - left_at <= lag + speed * dt
+    join.start(t)
+    join.step(nav_at(t, x=left_at, y=0.0, heading=90.0), t)
+    assert join.follower is not None and join.follower.entry is not None
+    assert join.follower.entry.radius == pytest.approx(10.0)        # the half circle

@@ -12,7 +12,13 @@ from mavhelm.tasks import turn_plan
 from mavhelm.tasks.pid import HelmGains
 from mavhelm.tasks.registry import build_task
 from mavhelm.tasks.survey import Survey
-from mavhelm.tasks.trackline import TURN_LAG_S, LineFollower, TrackLine, link_track_lines
+from mavhelm.tasks.trackline import (
+    TURN_LAG_S,
+    FlownLine,
+    LineFollower,
+    TrackLine,
+    link_track_lines,
+)
 from mavhelm.tasks.turn_plan import Arc, corner_arc, entry_path, is_u_turn, u_turn_arc
 from tests.support.task_rig import TBlock, nav_at, task_block
 
@@ -72,11 +78,28 @@ def test_a_u_turn_is_one_half_circle_beyond_the_lines_ends() -> None:
     assert arc.centre == pytest.approx((100.0, -10.0)) and arc.radius == pytest.approx(10.0)
     assert arc.sweep == pytest.approx(math.pi) and arc.heading_out == pytest.approx(270.0)
     assert arc.locate((110.0, -10.0)) == pytest.approx((5.0 * math.pi, 0.0), abs=1e-9)
-    assert entry_path(None, *legs, 7.5) == arc
-    assert entry_path(legs[0], legs[1], legs[2], legs[3], None, 7.5) is None
+    assert entry_path(*legs, 7.5, after_half_circle=False) == arc
+    assert entry_path(legs[1], legs[2], legs[3], None, 7.5, after_half_circle=True) is None
+    assert turn_plan.is_half_circle(arc)
     # the line is flown to its end (less the lag), the join to its end
-    assert turn_plan.turn_in(None, *legs, 7.5, 2.5) == pytest.approx(2.5)
-    assert turn_plan.turn_in(*legs, None, 7.5, 2.5) == 0.0
+    assert turn_plan.turn_in(*legs, 7.5, 2.5, on_half_circle=False) == pytest.approx(2.5)
+    assert turn_plan.turn_in(legs[1], legs[2], legs[3], None, 7.5, 2.5,
+                             on_half_circle=True) == 0.0
+
+
+def test_the_corner_after_a_join_is_planned_as_the_join_was_flown() -> None:
+    """Whether a U-turn is one half circle depends on the Lead, so on the speed measured at
+    each of its two corners. A join entered by its corner's arc (the speed measured was low
+    there) is left for the line out at that corner's turn-in, and the line out entered by its
+    own arc, whatever the speed says there; a join entered by its half circle needs neither."""
+    legs = ((0.0, 0.0), (100.0, 0.0), (100.0, -20.0), (0.0, -20.0))
+    corner = corner_arc(*legs[:3], 4.8)
+    assert corner is not None and not turn_plan.is_half_circle(corner)
+    at_join_end = turn_plan.turn_in(legs[1], legs[2], legs[3], None, 6.0, 2.0,
+                                    on_half_circle=False)
+    assert at_join_end == pytest.approx(min(6.0 + 2.0, 10.0))
+    line_out = entry_path(legs[1], legs[2], legs[3], None, 6.0, after_half_circle=False)
+    assert line_out is not None and line_out.radius == pytest.approx(6.0)
 
 
 def survey(tblock: TBlock, lead: str) -> Survey:
@@ -172,11 +195,13 @@ def test_the_tunes_planned_turn_matches_the_helms() -> None:
     rng = np.random.default_rng(1)
     for i, lead in enumerate(leads):
         assert one[i] == is_u_turn(*corners, float(lead))
-        helm_leave = [turn_plan.turn_in(None, *corners, float(lead), lag),
-                      turn_plan.turn_in(*corners, None, float(lead), lag)]
+        helm_leave = [turn_plan.turn_in(*corners, float(lead), lag, on_half_circle=False),
+                      turn_plan.turn_in(*corners[1:], None, float(lead), lag,
+                                        on_half_circle=bool(one[i]))]
         assert [leave[0][i], leave[1][i]] == pytest.approx(helm_leave)
-        helm_entries = [entry_path(None, *corners, float(lead)),
-                        entry_path(*corners, None, float(lead))]
+        helm_entries = [entry_path(*corners, float(lead), after_half_circle=False),
+                        entry_path(*corners[1:], None, float(lead),
+                                   after_half_circle=bool(one[i]))]
         for arcs, helm in zip(entries[1:], helm_entries, strict=True):
             assert arcs is not None
             if helm is None:
@@ -220,7 +245,7 @@ def test_a_chained_trackline_started_far_from_its_planned_turn_flies_its_line(
                              ("StartFlag", "Next"), ("Lead", "5")))
     assert isinstance(first, TrackLine) and isinstance(then, TrackLine)
     link_track_lines([first, then])
-    first.flown = (((0.0, 0.0), (100.0, 0.0)),)     # the first line flown to its end
+    first.flown = (FlownLine((0.0, 0.0), (100.0, 0.0)),)     # the first line flown to its end
     then.start(0.0)
     then.step(nav_at(1.0, x=where[0], y=where[1], heading=180.0, speed=2.0), 1.0)
     assert then.follower is not None

@@ -135,6 +135,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Iterable
+from typing import NamedTuple
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Alias, Number, Param, Point
@@ -313,6 +314,15 @@ class LineFollower:
         return wrap_degrees(aim - self.correction) % 360.0
 
 
+class FlownLine(NamedTuple):
+    """A line a route has flown: its ends, and whether it was entered by a U-turn's half
+    circle (then the line after it is entered straight, with no turn of its own)."""
+
+    p1: Point2
+    p2: Point2
+    half_circle: bool = False
+
+
 class Speedometer:
     """Speed over the ground from the position fixes, over a baseline of at least
     ``SPEED_BASELINE_S`` (GPS noise). Shared by the TrackLines of a chain, so a line that
@@ -353,8 +363,8 @@ class RouteTask(SteeringTask):
     plans_turns = False
     """Whether the route's corners are planned turns (``turn_plan``): its lines are then left
     a turn-in early (``turn_in``) and each is entered by its planned path."""
-    flown: tuple[tuple[Point2, Point2], ...] = ()
-    """The last two lines flown before the current one, (P1, P2) each, the latest last."""
+    flown: tuple[FlownLine, ...] = ()
+    """The last two lines flown before the current one, the latest last."""
 
     slowing = 1.0
     """The thrust fraction asked for the current line's corner (``corner_speed``), latched once
@@ -364,6 +374,13 @@ class RouteTask(SteeringTask):
     turning = 1.0
     """The thrust fraction kept while the current line's planned entry is flown: the one the
     line before slowed to for the corner between them."""
+    u_turn_held = False
+    """The current line ends in a U-turn flown as one half circle, held since the vehicle came
+    within where the two-corner plan would leave the line (a Lead plus the lag). Whether a
+    U-turn is one half circle depends on the Lead, so on the speed measured, which a fix
+    stamped late can drop 20 % in one tick (the real SITL rover-skid at 4 m/s, its fixes
+    0.02-0.25 s old when heard): switched then, the plan's turn would start behind the vehicle
+    (2.1 m past its arc's start, a 3 m swing at the corner, 0.5 m on the next leg)."""
 
     def current_lead(self) -> float:
         """The carrot's lead now, metres: ``lead``, or ``lead_time`` of the speed."""
@@ -391,6 +408,7 @@ class RouteTask(SteeringTask):
         self.flown = ()
         self.slowing = self.turning = 1.0
         self.slow_speed = None
+        self.u_turn_held = False
 
     def resume(self, now: float | None = None) -> None:
         super().resume(now)
@@ -452,6 +470,7 @@ class RouteTask(SteeringTask):
         turn = abs(wrap_degrees(bearing(p2, after) - bearing(follower.p1, p2)))
         if turn < 1.0:
             return 0.0
+        measured = speed is None and k == self.index
         if speed is None:
             speed = self.speed_source().speed or 0.0
             slow = self.corner_speed() if k == self.index else None
@@ -459,12 +478,34 @@ class RouteTask(SteeringTask):
                 speed = min(speed, slow)
         lead = self.lead_at(speed)
         if self.plans_turns:
-            planned = turn_plan.turn_in(self.line_before(follower.p1), follower.p1, p2, after,
-                                        self.beyond(k), lead, TURN_LAG_S * speed)
+            lag = TURN_LAG_S * speed
+            planned = turn_plan.turn_in(
+                follower.p1, p2, after, self.beyond(k), lead, lag,
+                on_half_circle=turn_plan.is_half_circle(follower.entry),
+                u_turn=self._hold_u_turn(k, lead, lag) if measured else None)
             if planned is not None:
                 return planned
         return turn_in_distance(lead, math.radians(min(turn, 90.0)),
                                 distance(p2, after), follower.length, speed)
+
+    def _hold_u_turn(self, k: int, lead: float, lag: float) -> bool | None:
+        """True once the current line's end is held as a U-turn (``u_turn_held``), holding it
+        when it is one at ``lead`` and the vehicle is within ``lead`` + ``lag`` of its end;
+        None while undecided."""
+        follower = self.follower
+        if self.u_turn_held:
+            return True
+        if follower is None or follower.length - follower.along > lead + lag or \
+                not turn_plan.is_u_turn(follower.p1, follower.p2, self.after(k),
+                                        self.beyond(k), lead):
+            return None
+        self.u_turn_held = True
+        return True
+
+    def held_u_turn(self, k: int) -> bool:
+        """Whether the line before the one to target k ended in a held U-turn
+        (``u_turn_held``): the new line is then that U-turn's join."""
+        return self.u_turn_held
 
     def corner_fraction(self) -> float:
         """The fraction of its thrust the route asks for now (``corner_speed``): the one the
@@ -520,20 +561,25 @@ class RouteTask(SteeringTask):
         p2 = self.target(k)
         self.index = k
         if self.follower is not None:
-            self.flown = (*self.flown[-1:], (self.follower.p1, self.follower.p2))
+            self.flown = (*self.flown[-1:], FlownLine(
+                self.follower.p1, self.follower.p2,
+                turn_plan.is_half_circle(self.follower.entry)))
         if p2 is None:
             self.follower = None
             return False
         slowed = self.slowed_for(k)
+        held = self.held_u_turn(k)
         self.slowing, self.slow_speed = 1.0, None
+        self.u_turn_held = False
         lead = self.current_lead()
         self.follower = LineFollower(p1, p2, lead)
         if entry_from is not None and self.plans_turns:
-            older = self.flown[:-1]
-            before = older[-1][0] if older and distance(older[-1][1], entry_from) < CHAIN_GAP \
-                else None
-            self.follower.entry = turn_plan.entry_path(before, entry_from, p1, p2,
-                                                       self.after(k), lead)
+            last = self.flown[-1] if self.flown else None
+            after_half_circle = last is not None and last.half_circle and \
+                distance(last.p2, p1) < CHAIN_GAP
+            self.follower.entry = turn_plan.entry_path(entry_from, p1, p2, self.after(k), lead,
+                                                       after_half_circle=after_half_circle,
+                                                       u_turn=True if held else None)
         self.turning = slowed if self.follower.entry is not None else 1.0
         self.segment_start_time = now
         self.begin(k, now)
@@ -649,6 +695,12 @@ class TrackLine(RouteTask):
         if k == 0 and self.previous is not None:
             return self.previous.slowing
         return super().slowed_for(k)
+
+    def held_u_turn(self, k: int) -> bool:
+        """The first line is the join of a U-turn held by the TrackLine before, if chained."""
+        if k == 0 and self.previous is not None:
+            return self.previous.u_turn_held
+        return super().held_u_turn(k)
 
 
 def link_track_lines(tasks: Iterable[Task]) -> None:

@@ -156,30 +156,45 @@ def u_turn_arc(p0: Point2, p1: Point2, p2: Point2) -> Arc:
     return Arc(p1, p2, centre, distance(p1, p2) / 2.0, heading_in, side * math.pi)
 
 
-def entry_path(before: Point2 | None, p0: Point2, p1: Point2, p2: Point2,
-               after: Point2 | None, radius: float) -> Arc | None:
-    """The planned turn onto the line P1→P2 from P0→P1 (``before`` the point before P0,
-    ``after`` the one after P2, where known): the half circle of a U-turn whose join this
-    line is; none where this line is a U-turn's line out (the half circle brought the vehicle
-    onto it); else the corner's arc (``corner_arc``), where one fits."""
-    if is_u_turn(p0, p1, p2, after, radius):
+def is_half_circle(arc: Arc | None) -> bool:
+    """Whether an entry path is a U-turn's half circle (``u_turn_arc``; a corner's arc turns
+    at most ``MAX_TURN``)."""
+    return arc is not None and abs(arc.sweep) > math.radians(MAX_TURN)
+
+
+def entry_path(p0: Point2, p1: Point2, p2: Point2, after: Point2 | None, radius: float, *,
+               after_half_circle: bool, u_turn: bool | None = None) -> Arc | None:
+    """The planned turn onto the line P1→P2 from P0→P1 (``after`` the point after P2, where
+    known): the half circle of a U-turn whose join this line is; none where the line in was
+    entered by a half circle (``after_half_circle``: it brought the vehicle onto this line);
+    else the corner's arc (``corner_arc``), where one fits. ``u_turn``: whether this line is
+    a U-turn's join, as decided earlier (None: as ``is_u_turn`` says at ``radius``).
+
+    Whether the line in was a half circle is what was flown, not the classification redone
+    at the speed measured now: the speed is measured afresh at every corner, and a U-turn
+    classed as two corners at its second corner (or the reverse) would leave that corner
+    unplanned (2.9 m past the line on the real SITL rover-skid at 4 m/s, where a repeated GPS
+    fix dipped the speed measured across the threshold)."""
+    if is_u_turn(p0, p1, p2, after, radius) if u_turn is None else u_turn:
         return u_turn_arc(p0, p1, p2)
-    if is_u_turn(before, p0, p1, p2, radius):
+    if after_half_circle:
         return None
     return corner_arc(p0, p1, p2, radius)
 
 
-def turn_in(before: Point2 | None, p0: Point2, p1: Point2, p2: Point2, after: Point2 | None,
-            radius: float, lag: float) -> float | None:
-    """How far before P1 to leave the line P0→P1 for P1→P2 (``before``, ``after`` as for
-    ``entry_path``; ``lag``: the way run during the heading loop's lag, metres), so the turn
-    is asked for when it must start: at a U-turn's join, the lag; at the end of that join,
-    nothing (its half circle ends on the line out); at a corner with an arc, where the arc
-    starts plus the lag, at most ``FIT`` of the line; None where no turn is planned (too
-    slight or too sharp: pursuit's own turn-in)."""
-    if is_u_turn(before, p0, p1, p2, radius):
+def turn_in(p0: Point2, p1: Point2, p2: Point2, after: Point2 | None, radius: float,
+            lag: float, *, on_half_circle: bool, u_turn: bool | None = None) -> float | None:
+    """How far before P1 to leave the line P0→P1 for P1→P2 (``after`` as for ``entry_path``;
+    ``lag``: the way run during the heading loop's lag, metres; ``on_half_circle``: the line
+    P0→P1 was entered by a U-turn's half circle), so the turn is asked for when it must start:
+    at a U-turn's join, the lag; at the end of a join entered by its half circle, nothing (the
+    half circle ends on the line out); at a corner with an arc, where the arc starts plus the
+    lag, at most ``FIT`` of the line; None where no turn is planned (too slight or too sharp:
+    pursuit's own turn-in). ``u_turn``: whether P1→P2 is a U-turn's join, as decided earlier
+    (None: as ``is_u_turn`` says at ``radius``)."""
+    if on_half_circle:
         return 0.0
-    if is_u_turn(p0, p1, p2, after, radius):
+    if is_u_turn(p0, p1, p2, after, radius) if u_turn is None else u_turn:
         return min(lag, FIT * distance(p0, p1))
     arc = corner_arc(p0, p1, p2, radius)
     if arc is None:

@@ -186,11 +186,16 @@ def on_gps_raw_int(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
     post("GPS_FIX", float(msg.fix_type))
     if msg.fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
         return
+    state = bridge.state
+    if msg.time_usec > 0 and msg.time_usec == state.gps_fix_usec:
+        state.gps_repeats += 1
+        return
+    state.gps_fix_usec = msg.time_usec
     x, y = bridge.origin.to_local(*lat_lon_e7(msg.lat, msg.lon))
     _check_distance(bridge, x, y)
     post("GPS_X", x)
     post("GPS_Y", y)
-    age = fix_age(_heard_on_autopilot_clock(bridge.state), msg.time_usec)
+    age = fix_age(_heard_on_autopilot_clock(state), msg.time_usec)
     if age is not None:
         post("GPS_AGE", age)
     if msg.vel != UNKNOWN_U16:

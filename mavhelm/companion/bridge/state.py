@@ -45,6 +45,13 @@ class AutopilotState:
     ``Lateness``); None for a message without one."""
     heard_at: float | None = None
     """The companion's stamp of the message being handled."""
+    gps_fix_usec: int | None = None
+    """time_usec of the latest GPS fix posted. ArduPilot's GPS_RAW_INT stream is not in step
+    with the receiver and now and then sends the same fix twice; a repeat is not a new
+    position (posted again under a later stamp it reads as a vehicle that stopped, and a
+    filter would count it twice)."""
+    gps_repeats: int = 0
+    """GPS_RAW_INT messages that repeated the fix before them, not posted."""
 
     def forget_autopilot(self) -> None:
         """A new or restored connection: nothing heard before it counts."""
@@ -59,3 +66,4 @@ class AutopilotState:
         self.lateness = Lateness()
         self.late = None
         self.heard_at = None
+        self.gps_fix_usec = None
