@@ -34,8 +34,9 @@ of leg 3 (1 m short: the capture).
 The helm settings flown by default (``TUNED``), chosen by measuring against the real SITL (the
 control law, and why these, in ``mavhelm/tasks/trackline.py``):
 
-- iMAVLink ``MaxTurnRate = 90`` and pHelm ``YAW_PID_KP = 0.75``, the product's defaults: a
-  heading loop of 0.75 × 90 / 20 = 3.4 deg/s of turn per degree of heading error;
+- iMAVLink ``MaxTurnRate = 90`` and pHelm ``LINE_PID_KP = 0.75``, ``LINE_PID_KD = 0.2`` (the
+  heading tasks' defaults, and the line tasks' until 2026-12-02): a heading loop of
+  0.75 × 90 / 20 = 3.4 deg/s of turn per degree of heading error;
 - ``Lead = 3`` on the tasks: the pursuit's time constant Lead / speed = 1.5 s at 2 m/s, which
   the product's default ``LeadTime = 1.5`` s gives at any speed.
 
@@ -51,8 +52,10 @@ m, hunting), YAW_PID_KD 0.4 (motorboat 1.1–1.5 m), YAW_PID_KP 0.5 (motorboat-s
 and the turn-in's lag term at every corner, or at none (0.4–1.1 m).
 
 ``--helm-defaults`` flies the product's defaults instead, read from their declarations (no
-Lead: LeadTime × speed); ``--lead-time``, ``--yaw-kp``, ``--yaw-kd`` and ``--max-turn-rate``
-override those.
+Lead: LeadTime × speed); ``--lead-time``, ``--line-kp``, ``--line-kd`` and ``--max-turn-rate``
+override those. (Before 2026-12-02 the line tasks steered on ``YAW_PID``, and the figures below
+that predate it were flown so: ``--yaw-kp 1 --yaw-kd 0`` then is ``--line-kp 1 --line-kd 0``
+now.)
 
 ``--tune`` runs ``mavhelm tune`` first on a fresh SITL of the same model and conditions (its
 box ±60 m around the home, thrusts 50 and 100) and flies the gains it writes; ``--model``
@@ -254,14 +257,14 @@ class Helm:
     """The helm settings a mission is flown with (see the module docstring)."""
 
     name: str
-    yaw_kp: float
+    line_kp: float
     lead: float | None
     """Lead (m); None: the tasks' default, LeadTime × speed."""
     max_turn_rate: float = 45.0
     app_tick: float = 10.0
     stream_hz: float = 0.0
     """ATTITUDE, GPS_RAW_INT and GLOBAL_POSITION_INT rate; 0: the bridge's defaults."""
-    yaw_kd: float = 0.2
+    line_kd: float = 0.2
     lead_time: float | None = None
     """LeadTime (s) when ``lead`` is None; None: the tasks' default."""
 
@@ -273,16 +276,16 @@ class Helm:
         return "// Lead: the default"
 
 
-TUNED = Helm("tuned: MaxTurnRate 90, YAW_PID_KP 0.75, Lead 3", yaw_kp=0.75, lead=3.0,
+TUNED = Helm("tuned: MaxTurnRate 90, LINE_PID_KP 0.75, Lead 3", line_kp=0.75, lead=3.0,
              max_turn_rate=90.0)
 def product_defaults() -> Helm:
     """The product's defaults, read from their declarations."""
-    kp = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KP")
-    kd = next(p.default for p in GAIN_PARAMS if p.name == "YAW_PID_KD")
+    kp = next(p.default for p in GAIN_PARAMS if p.name == "LINE_PID_KP")
+    kd = next(p.default for p in GAIN_PARAMS if p.name == "LINE_PID_KD")
     rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
-    return Helm(f"product defaults: MaxTurnRate {rate:g}, YAW_PID_KP {kp:g}, "
-                f"LeadTime {DEFAULT_LEAD_TIME:g} s", yaw_kp=kp, lead=None,
-                max_turn_rate=rate, yaw_kd=kd)
+    return Helm(f"product defaults: MaxTurnRate {rate:g}, LINE_PID_KP {kp:g}, KD {kd:g}, "
+                f"LeadTime {DEFAULT_LEAD_TIME:g} s", line_kp=kp, lead=None,
+                max_turn_rate=rate, line_kd=kd)
 
 
 DEFAULTS = product_defaults()
@@ -345,7 +348,7 @@ def mission_text(kind: str, helm: Helm) -> str:
         imavlink=[("OnlineModes", "GUIDED"), ("MaxTurnRate", f"{helm.max_turn_rate:g}"),
                   *streams],
         helm={"AppTick": f"{helm.app_tick:g}", "MAXRUDDER": 20, "MAXTHRUST": 100,
-              "YAW_PID_KP": f"{helm.yaw_kp:g}", "YAW_PID_KD": f"{helm.yaw_kd:g}"},
+              "LINE_PID_KP": f"{helm.line_kp:g}", "LINE_PID_KD": f"{helm.line_kd:g}"},
         overall_timeout=400, clock_name="Clock", end_name="AllStop")
 
 
@@ -569,11 +572,11 @@ def tune_real(binary: Path, folder: Path, params: dict[str, float], model: str) 
     helm, link = mission.process("pHelm"), mission.process("iMAVLink")
     assert helm is not None and link is not None
     survey = next(t for t in helm.tasks if t.name.lower() == "survey")
-    kp, kd = float(helm.require("YAW_PID_KP").value), float(helm.require("YAW_PID_KD").value)
+    kp, kd = float(helm.require("LINE_PID_KP").value), float(helm.require("LINE_PID_KD").value)
     rate, lead = float(link.require("MaxTurnRate").value), float(survey.require("Lead").value)
-    return Helm(f"mavhelm tune ({model}): MaxTurnRate {rate:g}, YAW_PID_KP {kp:g}, "
-                f"KD {kd:g}, Lead {lead:g}", yaw_kp=kp, lead=lead, max_turn_rate=rate,
-                yaw_kd=kd)
+    return Helm(f"mavhelm tune ({model}): MaxTurnRate {rate:g}, LINE_PID_KP {kp:g}, "
+                f"KD {kd:g}, Lead {lead:g}", line_kp=kp, lead=lead, max_turn_rate=rate,
+                line_kd=kd)
 
 
 # ---- the table ---------------------------------------------------------------------------------
@@ -638,7 +641,7 @@ def flown_helm(args: argparse.Namespace) -> Helm:
     if args.lead_time is not None:
         helm = replace(helm, name=f"{helm.name}; LeadTime {args.lead_time:g} s", lead=None,
                        lead_time=args.lead_time)
-    for key, attr in (("yaw_kp", "YAW_PID_KP"), ("yaw_kd", "YAW_PID_KD"),
+    for key, attr in (("line_kp", "LINE_PID_KP"), ("line_kd", "LINE_PID_KD"),
                       ("max_turn_rate", "MaxTurnRate")):
         if getattr(args, key) is not None:
             helm = replace(helm, name=f"{helm.name}; {attr} {getattr(args, key):g}",
@@ -654,8 +657,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tasks", default="Survey,TrackLines",
                         help="missions, of Survey, TrackLines; default both")
     parser.add_argument("--helm-defaults", action="store_true",
-                        help="fly the product's defaults (MaxTurnRate 90, YAW_PID_KP 0.75, "
-                             "LeadTime 1.5 s), not the tuned settings")
+                        help="fly the product's defaults (MaxTurnRate 90, LINE_PID_KP 1, "
+                             "KD 0, LeadTime 1.5 s), not the tuned settings")
     parser.add_argument("--tune", action="store_true",
                         help="real SITL: run mavhelm tune first (per model and condition) "
                              "and fly the gains it writes")
@@ -669,8 +672,8 @@ def main(argv: list[str] | None = None) -> int:
                              "swing after each turn), both to 5 m before the end")
     parser.add_argument("--lead-time", type=float, default=None,
                         help="fly the tasks' LeadTime (s) instead of the helm's Lead")
-    parser.add_argument("--yaw-kp", type=float, default=None, help="fly this YAW_PID_KP")
-    parser.add_argument("--yaw-kd", type=float, default=None, help="fly this YAW_PID_KD")
+    parser.add_argument("--line-kp", type=float, default=None, help="fly this LINE_PID_KP")
+    parser.add_argument("--line-kd", type=float, default=None, help="fly this LINE_PID_KD")
     parser.add_argument("--max-turn-rate", type=float, default=None,
                         help="fly this iMAVLink MaxTurnRate (deg/s)")
     parser.add_argument("--app-tick", type=float, default=None, help="pHelm AppTick (Hz)")

@@ -73,6 +73,7 @@ def test_tune_on_the_real_sitl_writes_gains_that_then_fly(real_sitl, tmp_path) -
         assert worst <= MARGIN
         helm = load_mission(tuned).process("pHelm")
         assert helm is not None and helm.entry("YAW_PID_KD") is not None
+        assert helm.entry("LINE_PID_KP") is not None and helm.entry("LINE_PID_KD") is not None
         assert op.mode == "HOLD"
 
         comp = CompanionProcess(tuned, sitl.ports.serial1, tmp_path / "flown")

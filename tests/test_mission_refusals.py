@@ -18,7 +18,8 @@ from mavhelm.core.moos import FOREIGN
 
 DEMO = (Path(__file__).resolve().parents[1] / "examples" / "demo.moos").read_text().splitlines()
 HELM_KNOWN = ("known: AppTick, TaskFile, YAW_PID_KP, YAW_PID_KD, YAW_PID_KI, "
-              "YAW_PID_INTEGRAL_LIMIT, Z_TO_PITCH_PID_KP, Z_TO_PITCH_PID_KD, Z_TO_PITCH_PID_KI, "
+              "YAW_PID_INTEGRAL_LIMIT, LINE_PID_KP, LINE_PID_KD, LINE_PID_KI, "
+              "LINE_PID_INTEGRAL_LIMIT, Z_TO_PITCH_PID_KP, Z_TO_PITCH_PID_KD, Z_TO_PITCH_PID_KI, "
               "Z_TO_PITCH_PID_INTEGRAL_LIMIT, PITCH_PID_KP, PITCH_PID_KD, PITCH_PID_KI, "
               "PITCH_PID_INTEGRAL_LIMIT, MAXRUDDER, MAXTHRUST, MAXELEVATOR, MAXPITCH, Allow)")
 
@@ -96,6 +97,8 @@ FOUND = [
     ("pHelm", "YAW_PID_KI = -inf", "YAW_PID_KI must be a finite number, got '-inf'"),
     ("pHelm", "YAW_PID_INTEGRAL_LIMIT = nan",
      "YAW_PID_INTEGRAL_LIMIT must be a finite number, got 'nan'"),
+    ("pHelm", "LINE_PID_KP = nan", "LINE_PID_KP must be a finite number, got 'nan'"),
+    ("pHelm", "LINE_PID_KD = -1", "LINE_PID_KD must be a number in [0, 1000], got -1"),
     # values that ended in a traceback
     ("iMAVLink", "Baud = nan", "Baud must be a finite number, got 'nan'"),
     ("iMAVLink", "SystemID = 1e999", "SystemID must be a finite number, got '1e999'"),

@@ -7,6 +7,7 @@ import pytest
 from mavhelm.core.mission import Block, Entry, MissionError
 from mavhelm.tasks.helm import HELM_SCHEMA
 from mavhelm.tasks.pid import HelmGains, ScalarPID
+from mavhelm.tasks.registry import build_task
 
 
 def test_proportional_only_and_output_limit() -> None:
@@ -93,6 +94,23 @@ def test_gains_defaults_and_overrides() -> None:
     assert (g.max_rudder, g.max_thrust, g.max_elevator) == (30.0, 100.0, 30.0)
     pid = g.yaw_pid()
     assert pid.run(170.0, 0.0) == 30.0
+
+
+def test_line_tasks_steer_on_the_line_gains_and_heading_tasks_on_the_yaw_gains(
+        tblock) -> None:
+    """LINE_PID_* drive the tasks that hold a line (their own loop sits outside the heading
+    loop and wants it stiff, without KD); YAW_PID_* every other steering task."""
+    g = HelmGains.from_values(HELM_SCHEMA.read(
+        _helm_block(("YAW_PID_KP", "0.6"), ("LINE_PID_KP", "1.3"), ("LINE_PID_KD", "0.05"))))
+    assert (g.line_kp, g.line_kd, g.line_ki, g.line_integral_limit) == (1.3, 0.05, 0.0, 2.0)
+    assert (HelmGains().line_kp, HelmGains().line_kd) == (1.0, 0.0)
+    line = build_task(tblock("TrackLine", ("P1", "0,0"), ("P2", "100,0")), g)
+    survey = build_task(tblock("Survey", ("Center", "0,0"), ("A", "50"), ("B", "20"),
+                               ("Spacing", "10")), g)
+    heading = build_task(tblock("ConstantHeading", ("Heading", "90")), g)
+    assert (line.yaw_pid.kp, line.yaw_pid.kd) == (1.3, 0.05)
+    assert (survey.yaw_pid.kp, survey.yaw_pid.kd) == (1.3, 0.05)
+    assert (heading.yaw_pid.kp, heading.yaw_pid.kd) == (0.6, 0.2)
 
 
 @pytest.mark.parametrize(

@@ -94,9 +94,11 @@ ProcessConfig = pHelm
 
 def test_rewrite_changes_only_the_tuned_values():
     out = rewrite(MISSION, "m.moos", yaw_kp=0.8, yaw_kd=0.3, max_turn_rate=60.0,
-                  lead_for=lambda thrust: 2.0 if thrust == 50.0 else 3.5)
+                  lead_for=lambda thrust: 2.0 if thrust == 50.0 else 3.5, line_kp=1.5,
+                  line_kd=0.0)
     assert "MaxTurnRate = 60   // the default" in out
     assert "YAW_PID_KP = 0.8" in out and "YAW_PID_KD = 0.3" in out
+    assert "LINE_PID_KP = 1.5" in out and "LINE_PID_KD = 0" in out
     mission = parse_mission(out, "m.moos")
     helm = mission.process("pHelm")
     assert helm is not None

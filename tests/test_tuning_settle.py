@@ -14,7 +14,8 @@ MOTORBOAT_2 = YawModel(gain=0.93, time_constant=0.21, delay=0.0, rate_limit=84.1
 
 
 def test_a_leg_never_left_settles_at_once() -> None:
-    gains = Gains(yaw_kp=0.621, yaw_kd=0.124, max_turn_rate=90.0, lead_time=1.25)
+    gains = Gains(yaw_kp=0.621, yaw_kd=0.124, max_turn_rate=90.0, lead_time=1.25,
+                  line_kp=0.621, line_kd=0.124)
     p, = predict_all([gains], MOTORBOAT_2, Course(2.01, 0.5, 0.1), max_rudder=20.0,
                      app_tick=10.0)
     assert p.turn_swing is not None and p.turn_swing < 0.1

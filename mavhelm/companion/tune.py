@@ -184,7 +184,8 @@ def default_gains() -> Gains:
     rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
     helm = HelmGains()
     return Gains(yaw_kp=helm.yaw_kp, yaw_kd=helm.yaw_kd,
-                 max_turn_rate=float(rate), lead_time=DEFAULT_LEAD_TIME)
+                 max_turn_rate=float(rate), lead_time=DEFAULT_LEAD_TIME,
+                 line_kp=helm.line_kp, line_kd=helm.line_kd)
 
 
 def tune_mission(mission: Mission, box: Box, manoeuvre: Manoeuvre, folder: Path) -> Path:
@@ -202,7 +203,8 @@ def write_gains(mission_path: Path, tuning: Tuning, out: Path | None) -> tuple[P
     text = read_text_file(mission_path)
     g = tuning.gains
     new = rewrite(text, str(mission_path), yaw_kp=g.yaw_kp, yaw_kd=g.yaw_kd,
-                  max_turn_rate=g.max_turn_rate, lead_for=tuning.lead_for)
+                  line_kp=g.line_kp, line_kd=g.line_kd, max_turn_rate=g.max_turn_rate,
+                  lead_for=tuning.lead_for)
     backup = None
     if out is None:
         backup = mission_path.with_suffix(mission_path.suffix + ".bak")

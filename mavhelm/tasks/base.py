@@ -192,7 +192,7 @@ class Task:
         """Seconds the helm spent offline while this task was active (for TimeOutClock)."""
         self._offline_since: float | None = None
         self.end_cause: str | None = None
-        self.yaw_pid: ScalarPID = self.gains.yaw_pid()
+        self.yaw_pid: ScalarPID = self.heading_pid()
         self._outbox: list[tuple[str, float | str]] = []
         self.watcher: TaskWatcher | None = None
         """Who drains the outbox (the helm), told of every post."""
@@ -218,6 +218,11 @@ class Task:
     def describe_goal(self) -> str | None:
         """What the task is steering for, in a few words for the operator (or None)."""
         return None
+
+    def heading_pid(self) -> ScalarPID:
+        """The task's heading controller, made once (``YAW_PID_*``; a task that holds a line
+        has its own)."""
+        return self.gains.yaw_pid()
 
     def terminate(self, cause: str) -> None:
         """Called once when the task ends (cause: complete, timeout or starved)."""

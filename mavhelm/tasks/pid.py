@@ -122,6 +122,9 @@ def _pid_params(prefix: str, attr: str, what: str, defaults: tuple[float, ...]) 
 GAIN_PARAMS: tuple[Param, ...] = (
     *_pid_params("YAW", "yaw", "heading controller (deg of rudder per deg of error)",
                  (0.75, 0.2, 0.0, 2.0)),
+    *_pid_params("LINE", "line", "heading controller of the tasks that hold a line: TrackLine, "
+                 "Survey, XYPattern, Orbit (deg of rudder per deg of error)",
+                 (1.0, 0.0, 0.0, 2.0)),
     *_pid_params("Z_TO_PITCH", "z_to_pitch", "depth-to-pitch controller", (0.5, 0.0, 0.0, 0.0)),
     *_pid_params("PITCH", "pitch", "pitch-to-elevator controller", (0.5, 0.0, 0.0, 0.0)),
     Param("MAXRUDDER", ANGLE_LIMIT, 20.0, "deg", "rudder limit; full rudder = MaxTurnRate",
@@ -148,6 +151,10 @@ class HelmGains:
     yaw_kd: float = _default("yaw_kd")
     yaw_ki: float = _default("yaw_ki")
     yaw_integral_limit: float = _default("yaw_integral_limit")
+    line_kp: float = _default("line_kp")
+    line_kd: float = _default("line_kd")
+    line_ki: float = _default("line_ki")
+    line_integral_limit: float = _default("line_integral_limit")
     z_to_pitch_kp: float = _default("z_to_pitch_kp")
     z_to_pitch_kd: float = _default("z_to_pitch_kd")
     z_to_pitch_ki: float = _default("z_to_pitch_ki")
@@ -169,14 +176,20 @@ class HelmGains:
 
     def yaw_pid(self) -> ScalarPID:
         """A fresh heading controller: error in degrees, output rudder in degrees."""
-        return ScalarPID(
-            self.yaw_kp,
-            self.yaw_kd,
-            self.yaw_ki,
-            self.yaw_integral_limit,
-            self.max_rudder,
-            angular=True,
-        )
+        return ScalarPID(self.yaw_kp, self.yaw_kd, self.yaw_ki, self.yaw_integral_limit,
+                         self.max_rudder, angular=True)
+
+    def line_pid(self) -> ScalarPID:
+        """A fresh heading controller for a task that holds a line (``LINE_PID_*``).
+
+        A line's own loop (cross-track error to desired heading, ``trackline``) sits outside
+        this one and wants it stiff and without the derivative: on the real SITL, KP 1.0 and
+        KD 0 (Kψ 4.5 /s at the defaults' MaxTurnRate 90, MAXRUDDER 20) held every model's
+        lines best at 5 m/s, where the heading tasks' KP 0.75, KD 0.2 swung the skid boat
+        0.8–0.9 m on a leg in the stock wind; for a 30° heading step the same gains overshoot
+        13–23° (``benchmarks/bench_heading_step.py``), so heading tasks keep ``YAW_PID_*``."""
+        return ScalarPID(self.line_kp, self.line_kd, self.line_ki, self.line_integral_limit,
+                         self.max_rudder, angular=True)
 
     def depth_pid(self, *, reversing: bool = False) -> DepthByPitch:
         """A fresh depth controller (spec 1.4.2): depth error in metres, elevator in degrees."""

@@ -16,21 +16,25 @@ bearing to the carrot is ``line bearing − atan(XTE / Lead)``. Far from the lin
 bounded approach angle (never more than 90° off the line's direction); near it, it turns the
 vehicle onto the line with a time constant of Lead / V and arrives on the line's heading.
 
-How short a Lead can be is set by the heading loop. Taking that loop as a first-order lag of
-gain Kψ = YAW_PID_KP × MaxTurnRate / MAXRUDDER (per second: degrees per second of turn per
-degree of heading error, KD neglected), the cross-track loop near the line is
-``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V): it depends on the *lead
-time* Lead / V, not on the Lead. So the default Lead is a lead time, ``LeadTime`` seconds of
-the speed over the ground (measured from the fixes, ``Speedometer``; at least 1 m), and one
+How short a Lead can be is set by the heading loop: the line tasks' own (``LINE_PID_*``,
+``HelmGains.line_pid``; the other steering tasks use ``YAW_PID_*``). Taking that loop as a
+first-order lag of gain Kψ = LINE_PID_KP × MaxTurnRate / MAXRUDDER (per second: degrees per
+second of turn per degree of heading error, KD neglected), the cross-track loop near the line
+is ``e'' + Kψ·e' + Kψ·(V/Lead)·e = 0``, of damping ζ = ½·√(Kψ·Lead/V): it depends on the
+*lead time* Lead / V, not on the Lead. So the default Lead is a lead time, ``LeadTime`` seconds
+of the speed over the ground (measured from the fixes, ``Speedometer``; at least 1 m), and one
 default fits every speed; a ``Lead`` given in metres is kept whatever the speed (``mavhelm
-tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and YAW_PID_KP 0.75
-(Kψ 3.4 /s) with LeadTime 1.5 s (ζ ≈ 1.1 on this model; its delays make the real loop less
-damped), are what measured best on the real SITL motorboat at 2 m/s (Lead 3); they hold every
-model within 0.15 m at 2 m/s and, with the turns planned (below), within 0.5 m at 5 m/s
-(``benchmarks/bench_tracking.py``); the former MaxTurnRate 45, KP 0.5
-(Kψ 1.1 /s) with Lead 5 swung 1–1.3 m after each turn. A faster loop still (Kψ 4.5 /s with
-Lead 2 at 2 m/s) swung ±0.8 m for 15 s after a turn on one leg in sixteen: the loop's delays
-(the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
+tune`` writes one for the task's speed). The defaults, MaxTurnRate 90 and LINE_PID_KP 1.0 with
+no KD (Kψ 4.5 /s) with LeadTime 1.5 s (ζ ≈ 1.3 on this model; its delays make the real loop
+less damped), are what held every model's lines best on the real SITL at 5 m/s
+(``benchmarks/bench_tracking.py``, ``docs/tracking.md``); the heading tasks' YAW_PID_KP 0.75
+with KD 0.2 (Kψ 3.4 /s), which the lines flew until 2026-12-02 and which measured best on the
+motorboat at 2 m/s, swung the skid boat up to 0.8–0.9 m in the stock wind at 5 m/s, and a
+derivative only made the skid boat worse; the former MaxTurnRate 45, KP 0.5 (Kψ 1.1 /s) with
+Lead 5 swung 1–1.3 m after each turn. A heading task wants the softer loop: a 30° heading step
+overshoots 13–23° at KP 1.0 without KD. At 2 m/s the stiff loop holds every model within
+[L2]; with a shorter lead time (Lead 2 at 2 m/s) it swung ±0.8 m for 15 s after a turn on one
+leg in sixteen: the loop's delays (the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
 is anticipated (below), and the time a vehicle of turn rate ω needs to turn 90° is about
 1 / ω plus its delay: 1.5 s suits the SITL boat at 5 m/s (it turns about 50°/s).
 
@@ -142,6 +146,7 @@ from mavhelm.core.params import Alias, Number, Param, Point
 from mavhelm.tasks import corner_speed, turn_plan
 from mavhelm.tasks.base import HEADING, NavState, Task, Votes
 from mavhelm.tasks.geometry import DEGENERATE, Point2, bearing, carrot, distance, track_position
+from mavhelm.tasks.pid import ScalarPID
 from mavhelm.tasks.steering import SteeringTask
 from mavhelm.tasks.turn_plan import Arc
 from mavhelm.tasks.waypoint import RADIUS
@@ -392,6 +397,10 @@ class RouteTask(SteeringTask):
         if self.lead is not None:
             return self.lead
         return max(MIN_LEAD, self.lead_time * speed)
+
+    def heading_pid(self) -> ScalarPID:
+        """The line's heading controller (``LINE_PID_*``, ``HelmGains.line_pid``)."""
+        return self.gains.line_pid()
 
     def speed_source(self) -> Speedometer:
         if self.speedometer is None:

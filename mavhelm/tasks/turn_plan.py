@@ -20,8 +20,8 @@ speed, so the turn is asked for when it must start, and stops being asked for as
 the arc's end), less atan(offset / Lead), the offset signed as a cross-track error (positive
 to starboard of the path). On the straight parts that is the line's pursuit law; on the arc the
 look-ahead is the feed-forward of the arc's turn rate the heading loop needs (a P loop of gain
-Kψ lags a turning heading by ω / Kψ: 8° at 38 deg/s on the defaults' 3.4 /s, plus the
-vehicle's delay).
+Kψ lags a turning heading by ω / Kψ: 8° at 38 deg/s on the line loop's default 4.5 /s, plus
+the vehicle's delay).
 """
 
 from __future__ import annotations

@@ -11,8 +11,8 @@ read off a formula: a linear design (a PD zero on τ, a phase margin on d) misse
 swing after a turn — the rate and acceleration limits, the helm's tick and its 5-tap derivative
 (measured on the real SITL in ``benchmarks/bench_tracking.py``).
 
-Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the tasks'
-``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
+Every candidate (the heading loop's gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the
+tasks' ``LeadTime``) is simulated on the model, all at once (numpy over the candidates):
 
 - a 30° heading step: how long to stay within 1°, and the overshoot;
 - a survey's U-turn at the cruise speed (a leg, the 20 m join, the next leg, the turn planned
@@ -22,6 +22,15 @@ Every candidate (the loop gain Kψ = KP·K·MaxTurnRate/MAXRUDDER, KD/KP and the
   heading the fitted course lag late, the sideslip and the fix's latency): the largest
   cross-track error on the next leg from 10 m along it (the issue's window), and how long
   after the leg starts its cross-track error stays within 0.1 m.
+
+The heading step is flown with the candidate's heading loop (``YAW_PID``, the heading tasks');
+the U-turn with the line tasks' own loop (``LINE_PID``), whose gain is not searched but kept at
+``LINE_LOOP_GAIN`` with no derivative: the model cannot rank line loops among those that
+settle (it predicted soft ones best, and on the real SITL they swung 0.23-0.54 m after a
+U-turn where the stiff one held 0.11-0.32 m), so the tune keeps the loop measured best on every
+model. Where the model predicts that loop does not settle (``LINE_GUARD``: a slow vehicle of
+long delay, where a derivative and a longer Lead are what hold the line), the line loop is
+searched as the heading loop is, each candidate flying the U-turn on its own gains.
 
 Each with the loop's delay (the fitted one and the telemetry's age when the helm steers on
 it) and up to 0.1 s more (``DELAY_STEPS``: GPS latency and what the fit does not see), the
@@ -68,6 +77,17 @@ LEG_WINDOW = (10.0, 60.0)
 """Where on the next leg the swing is measured, m along it."""
 SLACK = 1.02
 """A candidate may be this much (2 %) worse than the baseline on one figure (a tie)."""
+LINE_LOOP_GAIN = 4.5
+"""Kψ of the line tasks' heading loop (``LINE_PID``), 1/s: LINE_PID_KP 1.0, KD 0 at MaxTurnRate
+90 and MAXRUDDER 20, the loop that held every real SITL model's lines best at 5 m/s
+(``mavhelm.tasks.pid.HelmGains.line_pid``). The tune scales LINE_PID_KP so the loop keeps this
+gain at the MaxTurnRate it writes and the turn-rate gain it fits."""
+LINE_GUARD = 0.5
+"""m: a predicted swing after a U-turn beyond this is a line loop that does not settle (the
+model predicted 0.01-0.20 m for the stiff loop on every real SITL model; 0.7-2.9 m on a vehicle
+of 0.6 s lag and 0.25 s delay at 2 m/s, whose searched loop it predicted at 0.06 m)."""
+DEFAULT_LINE_KP = 1.0
+"""``LINE_PID_KP``'s default (``mavhelm.tasks.pid``, restated: tuning imports only core)."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +100,9 @@ class Gains:
     loop_gain: float = math.nan
     """Kψ on the fitted vehicle, 1/s: degrees per second of turn per degree of heading
     error."""
+    line_kp: float = DEFAULT_LINE_KP
+    line_kd: float = 0.0
+    """The line tasks' heading loop (``LINE_PID_KP``, ``LINE_PID_KD``)."""
 
     def lead(self, speed: float) -> float:
         """The TrackLine/Survey Lead (m) for a task run at ``speed`` (m/s)."""
@@ -124,22 +147,26 @@ class Candidates:
     kd: np.ndarray
     max_turn_rate: np.ndarray
     lead_time: np.ndarray
+    line_kp: np.ndarray
+    line_kd: np.ndarray
 
     @classmethod
     def of(cls, gains: list[Gains]) -> Candidates:
         return cls(*(np.array([getattr(g, f) for g in gains], dtype=float)
-                     for f in ("yaw_kp", "yaw_kd", "max_turn_rate", "lead_time")))
+                     for f in ("yaw_kp", "yaw_kd", "max_turn_rate", "lead_time", "line_kp",
+                               "line_kd")))
 
 
 class _Loop:
     """The heading loop of every candidate, stepped together: the helm's PD with its 5-tap
     derivative at each tick, the rudder as a turn rate, the vehicle's delay, lag and limits."""
 
-    def __init__(self, c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
-                 app_tick: float, psi0: float = 0.0) -> None:
-        n = len(c.kp)
-        self.c, self.yaw, self.max_rudder = c, yaw, max_rudder
-        self.per_rudder = c.max_turn_rate / max_rudder
+    def __init__(self, kp: np.ndarray, kd: np.ndarray, max_turn_rate: np.ndarray,
+                 yaw: YawModel, delay: float, max_rudder: float, app_tick: float,
+                 psi0: float = 0.0) -> None:
+        n = len(kp)
+        self.kp, self.kd, self.yaw, self.max_rudder = kp, kd, yaw, max_rudder
+        self.per_rudder = max_turn_rate / max_rudder
         self.period = 1.0 / app_tick
         self.psi = np.full(n, psi0)
         self.rate = np.zeros(n)
@@ -158,7 +185,7 @@ class _Loop:
                 self.diffs = [*self.diffs[-(FIR_TAPS - 1):], diff / self.period]
             self.last_err = err
             d = sum(self.diffs) / len(self.diffs) if self.diffs else 0.0
-            rudder = np.clip(self.c.kp * err + self.c.kd * d, -self.max_rudder, self.max_rudder)
+            rudder = np.clip(self.kp * err + self.kd * d, -self.max_rudder, self.max_rudder)
             self.command = rudder * self.per_rudder
             self.next_tick += self.period
         self.pending.append(self.command)
@@ -180,7 +207,7 @@ def _settle(err: np.ndarray, ts: np.ndarray, tol: float) -> np.ndarray:
 
 def _heading_step(c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
                   app_tick: float) -> tuple[np.ndarray, np.ndarray]:
-    loop = _Loop(c, yaw, delay, max_rudder, app_tick)
+    loop = _Loop(c.kp, c.kd, c.max_turn_rate, yaw, delay, max_rudder, app_tick)
     desired = np.full(len(c.kp), HEADING_STEP)
     steps = int(HEADING_HORIZON / DT)
     errs = np.empty((steps, len(c.kp)))
@@ -306,7 +333,8 @@ def _u_turn(c: Candidates, yaw: YawModel, delay: float, max_rudder: float, app_t
     y = np.zeros(n)
     k = np.zeros(n, dtype=int)
     on_entry = np.zeros(n, dtype=bool)
-    loop = _Loop(c, yaw, delay, max_rudder, app_tick, psi0=90.0)
+    loop = _Loop(c.line_kp, c.line_kd, c.max_turn_rate, yaw, delay, max_rudder, app_tick,
+                 psi0=90.0)
     track = [loop.psi.copy() for _ in range(round(course.course_lag / DT) + 1)]
     swing, settle, leg_start, last_big = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     t = 0.0
@@ -374,14 +402,20 @@ def predict(gains: Gains, yaw: YawModel, speed: float | None, *, max_rudder: flo
                        app_tick=app_tick)[0]
 
 
-def candidates(yaw: YawModel, max_rudder: float) -> list[Gains]:
+def candidates(yaw: YawModel, max_rudder: float, *, stiff_lines: bool = True) -> list[Gains]:
     """The searched gains: MaxTurnRate r_max / K (at least r_max), every Kψ, KD/KP and
-    LeadTime."""
+    LeadTime; the line loop ``LINE_LOOP_GAIN`` with no KD (``stiff_lines``), else the
+    candidate's heading loop."""
     max_turn_rate = float(max(5.0, min(180.0, round(yaw.rate_limit / min(yaw.gain, 1.0)))))
     per_rudder = yaw.gain * max_turn_rate / max_rudder
-    return [Gains(round(kpsi / per_rudder, 3), round(ratio * kpsi / per_rudder, 3),
-                  max_turn_rate, lead_time, kpsi)
-            for kpsi in KPSI for ratio in KD_RATIOS for lead_time in LEAD_TIMES]
+    out = []
+    for kpsi in KPSI:
+        for ratio in KD_RATIOS:
+            kp, kd = round(kpsi / per_rudder, 3), round(ratio * kpsi / per_rudder, 3)
+            line = (round(LINE_LOOP_GAIN / per_rudder, 3), 0.0) if stiff_lines else (kp, kd)
+            out += [Gains(kp, kd, max_turn_rate, lead_time, kpsi, *line)
+                    for lead_time in LEAD_TIMES]
+    return out
 
 
 def score(p: Prediction) -> float:
@@ -396,13 +430,27 @@ def design(yaw: YawModel, *, max_rudder: float, app_tick: float, course: Course 
            ) -> tuple[Gains, Prediction, Prediction | None]:
     """The best candidate predicted no worse than ``baseline`` (which is kept if none is):
     (gains, their prediction, the baseline's prediction). ``search`` False keeps the
-    baseline (a model whose predictions are not trusted), predicted all the same."""
+    baseline (a model whose predictions are not trusted), predicted all the same. The line
+    loop is the stiff one unless the model predicts it does not settle (``LINE_GUARD``)."""
     course = course or Course(None)
-    pool = candidates(yaw, max_rudder) if search or baseline is None else []
     if baseline is not None:
         baseline = replace(baseline, loop_gain=baseline.yaw_kp * yaw.gain
                            * baseline.max_turn_rate / max_rudder)
-        pool.append(baseline)
+    best = _best(candidates(yaw, max_rudder) if search or baseline is None else [], yaw,
+                 course, baseline, max_rudder=max_rudder, app_tick=app_tick)
+    swing = best[1].turn_swing
+    if search and swing is not None and swing > LINE_GUARD:
+        searched = _best(candidates(yaw, max_rudder, stiff_lines=False), yaw, course,
+                         baseline, max_rudder=max_rudder, app_tick=app_tick)
+        if searched[1].turn_swing is not None and searched[1].turn_swing < swing:
+            best = searched
+    return best
+
+
+def _best(pool: list[Gains], yaw: YawModel, course: Course, baseline: Gains | None, *,
+          max_rudder: float, app_tick: float) -> tuple[Gains, Prediction, Prediction | None]:
+    """The best-scored of ``pool`` predicted no worse than ``baseline`` (appended to it)."""
+    pool = [*pool, *([baseline] if baseline is not None else [])]
     predictions = predict_all(pool, yaw, course, max_rudder=max_rudder, app_tick=app_tick)
     reference = predictions[-1] if baseline is not None else None
     best = min((i for i, p in enumerate(predictions)

@@ -124,6 +124,9 @@ class Tuning:
             f"gains (heading loop {g.loop_gain:.2f} /s):",
             f"  pHelm    YAW_PID_KP = {g.yaw_kp:g}",
             f"  pHelm    YAW_PID_KD = {g.yaw_kd:g}",
+            f"  pHelm    LINE_PID_KP = {g.line_kp:g} (the line tasks' loop, "
+            f"{g.line_kp * y.gain * g.max_turn_rate / self.max_rudder:.2f} /s)",
+            f"  pHelm    LINE_PID_KD = {g.line_kd:g}",
             f"  iMAVLink MaxTurnRate = {g.max_turn_rate:g}",
             f"  TrackLine/Survey Lead = {self.lead_for(None):g} "
             f"(LeadTime {g.lead_time:g} s at Thrust {self.cruise_thrust:g}, {cruise:.2f} m/s; "
@@ -137,6 +140,7 @@ class Tuning:
                          f"not trusted")
         if b is not None and bp is not None:
             lines.append(f"predicted, the defaults (YAW_PID_KP {b.yaw_kp:g}, KD {b.yaw_kd:g}, "
+                         f"LINE_PID_KP {b.line_kp:g}, KD {b.line_kd:g}, "
                          f"MaxTurnRate {b.max_turn_rate:g}, LeadTime {b.lead_time:g} s): "
                          f"{bp.describe(cruise)}")
             if not self.trusted:

@@ -50,7 +50,7 @@ def _tasks(mission: Mission) -> list[Block]:
 
 
 def rewrite(text: str, file: str, *, yaw_kp: float, yaw_kd: float, max_turn_rate: float,
-            lead_for: Callable[[float | None], float]) -> str:
+            lead_for: Callable[[float | None], float], line_kp: float, line_kd: float) -> str:
     """The mission text with the tuned values; the result is parsed again to be sure."""
     mission = parse_mission(text, file)
     lines = text.splitlines()
@@ -61,6 +61,8 @@ def rewrite(text: str, file: str, *, yaw_kp: float, yaw_kd: float, max_turn_rate
         raise ValueError(f"{file}: no pHelm block to put the heading gains in")
     _set(lines, inserts, helm, "YAW_PID_KP", f"{yaw_kp:g}")
     _set(lines, inserts, helm, "YAW_PID_KD", f"{yaw_kd:g}")
+    _set(lines, inserts, helm, "LINE_PID_KP", f"{line_kp:g}")
+    _set(lines, inserts, helm, "LINE_PID_KD", f"{line_kd:g}")
     tail: list[str] = []
     if link is None:
         tail = ["ProcessConfig = iMAVLink", "{", f"    MaxTurnRate = {max_turn_rate:g}", "}"]
