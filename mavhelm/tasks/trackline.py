@@ -501,12 +501,12 @@ class RouteTask(SteeringTask):
         """True once the current line's end is held as a U-turn (``u_turn_held``), holding it
         when it is one at ``lead`` and the vehicle is within ``lead`` + ``lag`` of its end;
         None while undecided."""
-        follower = self.follower
+        follower, after = self.follower, self.after(k)
         if self.u_turn_held:
             return True
-        if follower is None or follower.length - follower.along > lead + lag or \
-                not turn_plan.is_u_turn(follower.p1, follower.p2, self.after(k),
-                                        self.beyond(k), lead):
+        if follower is None or after is None or follower.length - follower.along > lead + lag \
+                or not turn_plan.is_u_turn(follower.p1, follower.p2, after, self.beyond(k),
+                                           lead):
             return None
         self.u_turn_held = True
         return True
