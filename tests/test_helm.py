@@ -376,6 +376,8 @@ def test_from_mission() -> None:
     helm = Helm.from_mission(Bus(SimClock()), mission)
     assert [t.name for t in helm.tasks] == ["Overall", "Stop"]
     assert helm.gains.yaw_kp == 1.0
+    # YAW_PID set and no LINE_PID: the one heading loop of the original pHelm, lines included
+    assert (helm.gains.line_kp, helm.gains.line_kd) == (1.0, 0.2)
     with pytest.raises(MissionError, match="no ProcessConfig = pHelm"):
         Helm.from_mission(Bus(SimClock()), Mission(FILE, Block("Globals", "", FILE, 1), {}, tasks))
 

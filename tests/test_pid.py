@@ -113,6 +113,20 @@ def test_line_tasks_steer_on_the_line_gains_and_heading_tasks_on_the_yaw_gains(
     assert (heading.yaw_pid.kp, heading.yaw_pid.kd) == (0.6, 0.2)
 
 
+@pytest.mark.parametrize(("entries", "line"), [
+    ((), (1.0, 0.0)),                                                # the product's defaults
+    ((("YAW_PID_KP", "0.6"),), (0.6, 0.2)),                          # a MOOS mission's one loop
+    ((("yaw_pid_kd", "0.3"), ("LINE_PID_KP", "1.3")), (1.3, 0.0)),   # both loops its own
+])
+def test_a_block_that_sets_only_yaw_pid_keeps_its_lines_on_it(entries, line) -> None:
+    """The original pHelm has one heading loop: a mission that tunes YAW_PID_* and says nothing
+    of LINE_PID_* has tuned its lines too, and they keep those gains."""
+    block = _helm_block(*entries)
+    g = HelmGains.from_values(HELM_SCHEMA.read(block), [e.key for e in block.entries])
+    assert (g.line_kp, g.line_kd) == line
+    assert (g.line_ki, g.line_integral_limit) == (0.0, 2.0)
+
+
 @pytest.mark.parametrize(
     ("key", "value", "expected"),
     [

@@ -106,3 +106,39 @@ def test_the_tunes_model_of_the_helm_matches_the_helm() -> None:
 
     assert gains.FIR_TAPS == pid.FIR_TAPS
     assert gains.Course(None).turn_lag == trackline.TURN_LAG_S
+
+
+SKID_IN_WIND = YawModel(gain=1.02, time_constant=0.19, delay=0.05, rate_limit=98.6, rms=7.62,
+                        accel_limit=173.0, latency=0.04)
+"""The real SITL motorboat-skid's fit at 5 m/s in the stock wind (2026-12-02): its model
+predicted the stiff line loop would swing 1.5 m after a U-turn; it flies 0.18-0.25 m."""
+SLOW = YawModel(gain=1.0, time_constant=0.6, delay=0.25, rate_limit=40.0, rms=0.3,
+                accel_limit=128.0)
+"""A vehicle slower than any the stiff line loop was measured on (lag 0.85 s)."""
+
+
+def test_the_line_loop_is_the_measured_one_unless_the_vehicle_is_slower_than_any_measured():
+    """The tune keeps LINE_PID asking 4.5 deg/s of turn per degree (KP scaled to the
+    MaxTurnRate it writes, no KD) whatever its model predicts of it, except on a vehicle whose
+    lag is beyond those it was measured on: there the line loop is searched on the model."""
+    skid, _, _ = design(SKID_IN_WIND, max_rudder=20.0, app_tick=10.0, course=Course(5.0),
+                        baseline=default_gains())
+    assert skid.line_kd == 0.0
+    assert skid.line_kp * skid.max_turn_rate / 20.0 == pytest.approx(4.5, rel=0.01)
+    slow, prediction, _ = design(SLOW, max_rudder=20.0, app_tick=10.0, course=Course(2.0),
+                                 baseline=default_gains())
+    assert (slow.line_kp, slow.line_kd) == (slow.yaw_kp, slow.yaw_kd)
+    assert prediction.turn_swing is not None and prediction.turn_swing < 0.5
+
+
+def test_the_tunes_line_loop_is_the_helms_default() -> None:
+    """``tuning`` imports only core: its restatement of LINE_PID's default, and the loop it
+    keeps (asked turn rate per degree), are the helm's defaults at the default MaxTurnRate."""
+    from mavhelm.companion.bridge.config import IMAVLINK_SCHEMA
+    from mavhelm.tasks.pid import HelmGains
+    from mavhelm.tuning import gains
+
+    helm = HelmGains()
+    rate = next(p.default for p in IMAVLINK_SCHEMA.params if p.name == "MaxTurnRate")
+    assert (gains.DEFAULT_LINE_KP, 0.0) == (helm.line_kp, helm.line_kd)
+    assert gains.LINE_LOOP_GAIN == pytest.approx(helm.line_kp * rate / helm.max_rudder)

@@ -63,7 +63,8 @@ class Helm(App):
         super().__init__(bus)
         self.block = block
         settings = HELM_SCHEMA.read(block)
-        self.gains = HelmGains.from_values(settings)
+        self.gains = HelmGains.from_values(
+            settings, [p.name for p in GAIN_PARAMS if block.entry(p.name) is not None])
         self.app_tick: float = settings["app_tick"]
         self.third_party = ThirdParty(settings["allow"], self.gains)
         self._requests: list[tuple[str, str]] = []

@@ -8,7 +8,8 @@ differentiate wrongly whenever a message is late or doubled.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
 
 from mavhelm.core.geodesy import wrap_degrees
 from mavhelm.core.params import Number, Param
@@ -123,7 +124,8 @@ GAIN_PARAMS: tuple[Param, ...] = (
     *_pid_params("YAW", "yaw", "heading controller (deg of rudder per deg of error)",
                  (0.75, 0.2, 0.0, 2.0)),
     *_pid_params("LINE", "line", "heading controller of the tasks that hold a line: TrackLine, "
-                 "Survey, XYPattern, Orbit (deg of rudder per deg of error)",
+                 "Survey, XYPattern, Orbit (deg of rudder per deg of error; a block that sets "
+                 "YAW_PID_* and no LINE_PID_* steers its lines on its YAW_PID_*)",
                  (1.0, 0.0, 0.0, 2.0)),
     *_pid_params("Z_TO_PITCH", "z_to_pitch", "depth-to-pitch controller", (0.5, 0.0, 0.0, 0.0)),
     *_pid_params("PITCH", "pitch", "pitch-to-elevator controller", (0.5, 0.0, 0.0, 0.0)),
@@ -136,6 +138,14 @@ GAIN_PARAMS: tuple[Param, ...] = (
           attr="max_pitch"),
 )
 """The pHelm block's controller settings, shared by every task (one ``HelmGains``)."""
+
+
+def follows_yaw(given: Iterable[str]) -> bool:
+    """Whether a pHelm block that sets these names keeps its lines on YAW_PID: it sets some
+    YAW_PID_* and no LINE_PID_*."""
+    names = {name.upper() for name in given}
+    return any(n.startswith("YAW_PID_") for n in names) and \
+        not any(n.startswith("LINE_PID_") for n in names)
 
 
 def _default(attr: str) -> float:
@@ -169,10 +179,20 @@ class HelmGains:
     max_pitch: float = _default("max_pitch")
 
     @classmethod
-    def from_values(cls, values: dict[str, object]) -> HelmGains:
-        """From a pHelm block read by a schema holding ``GAIN_PARAMS`` (other keys ignored)."""
-        return cls(**{p.attribute: float(values[p.attribute])  # type: ignore[arg-type]
-                      for p in GAIN_PARAMS})
+    def from_values(cls, values: dict[str, object], given: Iterable[str] = ()) -> HelmGains:
+        """From a pHelm block read by a schema holding ``GAIN_PARAMS`` (other keys ignored).
+        ``given``: the names the block itself sets. A block that sets YAW_PID_* and no
+        LINE_PID_* (a MOOS mission, whose pHelm has the one heading loop) keeps its lines on
+        its YAW_PID: gains tuned on a vehicle are not swapped for defaults measured on another
+        (``lines_follow_yaw``)."""
+        gains = cls(**{p.attribute: float(values[p.attribute])  # type: ignore[arg-type]
+                       for p in GAIN_PARAMS})
+        return gains.lines_follow_yaw() if follows_yaw(given) else gains
+
+    def lines_follow_yaw(self) -> HelmGains:
+        """These gains with the line loop the heading loop (``LINE_PID_*`` = ``YAW_PID_*``)."""
+        return replace(self, line_kp=self.yaw_kp, line_kd=self.yaw_kd, line_ki=self.yaw_ki,
+                       line_integral_limit=self.yaw_integral_limit)
 
     def yaw_pid(self) -> ScalarPID:
         """A fresh heading controller: error in degrees, output rudder in degrees."""

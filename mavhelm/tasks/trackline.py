@@ -33,8 +33,9 @@ motorboat at 2 m/s, swung the skid boat up to 0.8–0.9 m in the stock wind at 5
 derivative only made the skid boat worse; the former MaxTurnRate 45, KP 0.5 (Kψ 1.1 /s) with
 Lead 5 swung 1–1.3 m after each turn. A heading task wants the softer loop: a 30° heading step
 overshoots 13–23° at KP 1.0 without KD. At 2 m/s the stiff loop holds every model within
-[L2]; with a shorter lead time (Lead 2 at 2 m/s) it swung ±0.8 m for 15 s after a turn on one
-leg in sixteen: the loop's delays (the helm's tick, telemetry, GPS latency) are close. The lead time is also how early a turn
+0.03 m RMS and 0.12 m max (Lead 3); with a shorter lead time (Lead 2 at 2 m/s) it swung ±0.8 m
+for 15 s after a turn on one leg in sixteen: the loop's delays (the helm's tick, telemetry,
+GPS latency) are close. The lead time is also how early a turn
 is anticipated (below), and the time a vehicle of turn rate ω needs to turn 90° is about
 1 / ω plus its delay: 1.5 s suits the SITL boat at 5 m/s (it turns about 50°/s).
 

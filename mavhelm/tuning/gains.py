@@ -28,9 +28,9 @@ the U-turn with the line tasks' own loop (``LINE_PID``), whose gain is not searc
 ``LINE_LOOP_GAIN`` with no derivative: the model cannot rank line loops among those that
 settle (it predicted soft ones best, and on the real SITL they swung 0.23-0.54 m after a
 U-turn where the stiff one held 0.11-0.32 m), so the tune keeps the loop measured best on every
-model. Where the model predicts that loop does not settle (``LINE_GUARD``: a slow vehicle of
-long delay, where a derivative and a longer Lead are what hold the line), the line loop is
-searched as the heading loop is, each candidate flying the U-turn on its own gains.
+model. On a vehicle slower than any it was measured on (``LINE_MAX_LAG``: a derivative and a
+longer Lead may be what holds its line) the line loop is searched as the heading loop is,
+each candidate flying the U-turn on its own gains, and taken if predicted to swing less.
 
 Each with the loop's delay (the fitted one and the telemetry's age when the helm steers on
 it) and up to 0.1 s more (``DELAY_STEPS``: GPS latency and what the fit does not see), the
@@ -69,6 +69,8 @@ LEAD_TIMES = (0.8, 1.0, 1.25, 1.5, 2.0)
 MIN_LEAD = 1.0
 HEADING_STEP = 30.0
 HEADING_TOLERANCE = 1.0
+HEADING_RISE = 5.0
+"""Degrees: a heading step has risen once this close to the new heading."""
 HEADING_HORIZON = 12.0
 LINE_TOLERANCE = 0.1
 JOIN = 20.0
@@ -78,14 +80,22 @@ LEG_WINDOW = (10.0, 60.0)
 SLACK = 1.02
 """A candidate may be this much (2 %) worse than the baseline on one figure (a tie)."""
 LINE_LOOP_GAIN = 4.5
-"""Kψ of the line tasks' heading loop (``LINE_PID``), 1/s: LINE_PID_KP 1.0, KD 0 at MaxTurnRate
-90 and MAXRUDDER 20, the loop that held every real SITL model's lines best at 5 m/s
-(``mavhelm.tasks.pid.HelmGains.line_pid``). The tune scales LINE_PID_KP so the loop keeps this
-gain at the MaxTurnRate it writes and the turn-rate gain it fits."""
-LINE_GUARD = 0.5
-"""m: a predicted swing after a U-turn beyond this is a line loop that does not settle (the
-model predicted 0.01-0.20 m for the stiff loop on every real SITL model; 0.7-2.9 m on a vehicle
-of 0.6 s lag and 0.25 s delay at 2 m/s, whose searched loop it predicted at 0.06 m)."""
+"""The line tasks' heading loop (``LINE_PID``) as commanded, degrees per second of turn asked per
+degree of heading error (LINE_PID_KP × MaxTurnRate / MAXRUDDER): LINE_PID_KP 1.0, KD 0 at
+MaxTurnRate 90 and MAXRUDDER 20, the loop that held every real SITL model's lines best at 5 m/s
+(``mavhelm.tasks.pid.HelmGains.line_pid``). The tune scales LINE_PID_KP so the loop asks for
+the same at the MaxTurnRate it writes. Not by the fitted turn-rate gain K: the loop measured
+best was measured so, on vehicles whose fits gave K 0.8-1.1 (one boat 0.79-1.14 from one tune
+to the next), and scaled by K the model's preference for softer line loops (the wrong way,
+above) kept the defaults."""
+LINE_MAX_LAG = 0.5
+"""s: the fitted turn-rate time constant plus the loop's delay (the fitted one and the
+telemetry's age) up to which the tune keeps the stiff line loop. The real SITL models it was
+measured best on fit 0.07-0.33 s (eighteen tunes, 2026-12-02; the motorboat 0.15-0.33 from one
+tune to the next), well under this; the stiff loop's own time constant is 0.22 s. Not the model's
+prediction of the U-turn: on the skid boat in the stock wind it predicted the stiff loop would
+swing 1.50 m and chose a soft one with KD, which flew 0.32-0.37 m where the stiff loop flies
+0.18-0.25 m."""
 DEFAULT_LINE_KP = 1.0
 """``LINE_PID_KP``'s default (``mavhelm.tasks.pid``, restated: tuning imports only core)."""
 
@@ -121,17 +131,25 @@ class Prediction:
     turn_swing: float | None = None
     """Largest cross-track error (m) on a survey's next leg from 10 m along it, after the
     U-turn onto it (None: no speed)."""
+    heading_rise: float | None = None
+    """Seconds for a 30° heading step to first come within ``HEADING_RISE`` of the new
+    heading: a loop too slow to matter can tie with the defaults on the settling (neither
+    settling within 1° in the horizon on a vehicle that limit-cycles), not on this."""
 
     def no_worse_than(self, other: Prediction) -> bool:
         """At least as fast and as well damped as ``other`` on every figure (within SLACK)."""
         pairs = [(self.heading_settle, other.heading_settle),
                  (self.heading_overshoot, max(other.heading_overshoot, 0.5)),
-                 (self.line_settle, other.line_settle), (self.turn_swing, other.turn_swing)]
+                 (self.line_settle, other.line_settle), (self.turn_swing, other.turn_swing),
+                 (self.heading_rise, other.heading_rise)]
         return all(a <= b * SLACK + 1e-9 for a, b in pairs if a is not None and b is not None)
 
     def describe(self, speed: float | None) -> str:
-        text = (f"a {HEADING_STEP:g} deg heading step settles within {HEADING_TOLERANCE:g} deg "
-                f"in {self.heading_settle:.1f} s (overshoot {self.heading_overshoot:.1f} deg)")
+        rise = "" if self.heading_rise is None else \
+            f"comes within {HEADING_RISE:g} deg in {self.heading_rise:.1f} s, "
+        text = (f"a {HEADING_STEP:g} deg heading step {rise}settles within "
+                f"{HEADING_TOLERANCE:g} deg in {self.heading_settle:.1f} s (overshoot "
+                f"{self.heading_overshoot:.1f} deg)")
         if self.line_settle is not None and speed is not None:
             text += (f"; at {speed:.2f} m/s a survey's U-turn swings {self.turn_swing:.2f} m "
                      f"on the next leg from 10 m along it, within {LINE_TOLERANCE:g} m "
@@ -206,7 +224,7 @@ def _settle(err: np.ndarray, ts: np.ndarray, tol: float) -> np.ndarray:
 
 
 def _heading_step(c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
-                  app_tick: float) -> tuple[np.ndarray, np.ndarray]:
+                  app_tick: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     loop = _Loop(c.kp, c.kd, c.max_turn_rate, yaw, delay, max_rudder, app_tick)
     desired = np.full(len(c.kp), HEADING_STEP)
     steps = int(HEADING_HORIZON / DT)
@@ -215,7 +233,9 @@ def _heading_step(c: Candidates, yaw: YawModel, delay: float, max_rudder: float,
         loop.step(desired, i * DT)
         errs[i] = HEADING_STEP - loop.psi
     ts = np.arange(steps) * DT
-    return _settle(errs, ts, HEADING_TOLERANCE), np.maximum(0.0, -errs.min(axis=0))
+    near = np.abs(errs) <= HEADING_RISE
+    rise = np.where(near.any(axis=0), ts[np.argmax(near, axis=0)], HEADING_HORIZON)
+    return _settle(errs, ts, HEADING_TOLERANCE), np.maximum(0.0, -errs.min(axis=0)), rise
 
 
 FIT = 0.5
@@ -379,19 +399,19 @@ def predict_all(gains: list[Gains], yaw: YawModel, course: Course, *, max_rudder
     figures = []
     for extra in DELAY_STEPS:
         delay = yaw.loop_delay + extra
-        settle, overshoot = _heading_step(c, yaw, delay, max_rudder, app_tick)
+        settle, overshoot, rise = _heading_step(c, yaw, delay, max_rudder, app_tick)
         for factor in SPEED_SPREAD if speed is not None else (1.0,):
             swing = line = np.full(len(gains), np.nan)
             if speed is not None:
                 swing, line = _u_turn(c, yaw, delay, max_rudder, app_tick, speed * factor,
                                       course)
-            figures.append(np.vstack([settle, overshoot, line, swing]))
+            figures.append(np.vstack([settle, overshoot, line, swing, rise]))
     worst = np.fmax.reduce(np.stack(figures), axis=0)
     out = []
     for i in range(len(gains)):
-        h_settle, h_over, l_settle, l_swing = (float(v) for v in worst[:, i])
+        h_settle, h_over, l_settle, l_swing, h_rise = (float(v) for v in worst[:, i])
         out.append(Prediction(h_settle, h_over, None if speed is None else l_settle,
-                              None if speed is None else l_swing))
+                              None if speed is None else l_swing, h_rise))
     return out
 
 
@@ -408,12 +428,13 @@ def candidates(yaw: YawModel, max_rudder: float, *, stiff_lines: bool = True) ->
     candidate's heading loop."""
     max_turn_rate = float(max(5.0, min(180.0, round(yaw.rate_limit / min(yaw.gain, 1.0)))))
     per_rudder = yaw.gain * max_turn_rate / max_rudder
+    stiff = (round(LINE_LOOP_GAIN * max_rudder / max_turn_rate, 3), 0.0)
     out = []
     for kpsi in KPSI:
         for ratio in KD_RATIOS:
             kp, kd = round(kpsi / per_rudder, 3), round(ratio * kpsi / per_rudder, 3)
-            line = (round(LINE_LOOP_GAIN / per_rudder, 3), 0.0) if stiff_lines else (kp, kd)
-            out += [Gains(kp, kd, max_turn_rate, lead_time, kpsi, *line)
+            out += [Gains(kp, kd, max_turn_rate, lead_time, kpsi,
+                          *(stiff if stiff_lines else (kp, kd)))
                     for lead_time in LEAD_TIMES]
     return out
 
@@ -431,7 +452,7 @@ def design(yaw: YawModel, *, max_rudder: float, app_tick: float, course: Course 
     """The best candidate predicted no worse than ``baseline`` (which is kept if none is):
     (gains, their prediction, the baseline's prediction). ``search`` False keeps the
     baseline (a model whose predictions are not trusted), predicted all the same. The line
-    loop is the stiff one unless the model predicts it does not settle (``LINE_GUARD``)."""
+    loop is the stiff one on a vehicle within ``LINE_MAX_LAG``."""
     course = course or Course(None)
     if baseline is not None:
         baseline = replace(baseline, loop_gain=baseline.yaw_kp * yaw.gain
@@ -439,7 +460,7 @@ def design(yaw: YawModel, *, max_rudder: float, app_tick: float, course: Course 
     best = _best(candidates(yaw, max_rudder) if search or baseline is None else [], yaw,
                  course, baseline, max_rudder=max_rudder, app_tick=app_tick)
     swing = best[1].turn_swing
-    if search and swing is not None and swing > LINE_GUARD:
+    if search and swing is not None and yaw.time_constant + yaw.loop_delay > LINE_MAX_LAG:
         searched = _best(candidates(yaw, max_rudder, stiff_lines=False), yaw, course,
                          baseline, max_rudder=max_rudder, app_tick=app_tick)
         if searched[1].turn_swing is not None and searched[1].turn_swing < swing:

@@ -124,8 +124,8 @@ class Tuning:
             f"gains (heading loop {g.loop_gain:.2f} /s):",
             f"  pHelm    YAW_PID_KP = {g.yaw_kp:g}",
             f"  pHelm    YAW_PID_KD = {g.yaw_kd:g}",
-            f"  pHelm    LINE_PID_KP = {g.line_kp:g} (the line tasks' loop, "
-            f"{g.line_kp * y.gain * g.max_turn_rate / self.max_rudder:.2f} /s)",
+            f"  pHelm    LINE_PID_KP = {g.line_kp:g} (the line tasks' loop, asking "
+            f"{g.line_kp * g.max_turn_rate / self.max_rudder:.2f} deg/s per deg)",
             f"  pHelm    LINE_PID_KD = {g.line_kd:g}",
             f"  iMAVLink MaxTurnRate = {g.max_turn_rate:g}",
             f"  TrackLine/Survey Lead = {self.lead_for(None):g} "
