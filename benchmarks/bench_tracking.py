@@ -129,13 +129,13 @@ at 5 m/s: helm 97-99 s, the rover-skid 125 s, AUTO 100-104 s, the rover-skid 115
 (the 5 m/s defaults rows: the same loop flown as ``--yaw-kp 1 --yaw-kd 0`` on the code before
 the line loop was its own, three runs each alternated with the former defaults; the rover-skid's
 also four runs of the product itself, the motorboat's in the wind two. Tuned: the skid boat's
-tunes at 5 m/s kept the defaults but one (fit residual 8.5-9.8 deg/s, over
-``TRUSTED_FIT_RMS``), the motorboat's first two too (no candidate predicted better); the one skid tune in the wind that was trusted (7.6 deg/s)
-chose, under the rule then, a soft line loop with KD that flew 0.07-0.08 / 0.32-0.37, and the
-rule was changed (``mavhelm/tuning/gains.py``, ``LINE_MAX_LAG``: its fit keeps the stiff
-loop now, ``tests/test_tuning_design.py``; those gains, LINE_PID_KP 0.909 at MaxTurnRate 99
-with LeadTime 1.25 s, flown by hand twice: 0.05-0.06 / 0.18-0.24).) The rows below are the
-history.
+tunes at 5 m/s kept the defaults but one (fit residual 8.5-9.8 deg/s, over ``TRUSTED_FIT_RMS``),
+the motorboat's first two too (no candidate predicted better); the one skid tune in the wind
+that was trusted (7.6 deg/s) chose, under the rule then, a soft line loop with KD that flew
+0.07-0.08 / 0.32-0.37, and the rule was changed (``mavhelm/tuning/gains.py``, ``LINE_MAX_LAG``:
+its fit keeps the stiff loop now, ``tests/test_tuning_design.py``; those gains, LINE_PID_KP
+0.909 at MaxTurnRate 99 with LeadTime 1.25 s, flown by hand twice: 0.05-0.06 / 0.18-0.24).) The
+rows below are the history.
 
 Flown again at 5 m/s (Survey, TrackLines): the motorboat in calm water 0.04 / 0.17 and 0.04 /
 0.17, and earlier 0.04 / 0.14 and 0.06 / 0.52 (one U-turn: the companion's data stopped for
