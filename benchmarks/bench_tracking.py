@@ -113,18 +113,18 @@ own AUTO on the same legs (one run each; survey time at 2 m/s: helm 223-225 s, A
 at 5 m/s: helm 97-99 s, the rover-skid 125 s, AUTO 100-104 s, the rover-skid 115 s):
 
     model          WP wind? defaults (runs)           tuned (tunes)             AUTO
-    motorboat      2  calm  0.01 / 0.07-0.08 (1)      0.01 / 0.05-0.06 (1)      0.12 / 0.18
-    motorboat      2  wind  0.02-0.03 / 0.11-0.12     0.02 / 0.09               0.12 / 0.18
-    motorboat-skid 2  calm  0.01 / 0.06               0.01 / 0.06-0.08          0.14 / 0.33
-    motorboat-skid 2  wind  0.03 / 0.12               0.02 / 0.09-0.10          0.14 / 0.32
-    rover          2  calm  0.01 / 0.07               0.01 / 0.05-0.06          0.12 / 0.18
-    rover-skid     2  calm  0.01 / 0.06               0.01 / 0.04               0.12 / 0.19
-    motorboat      5  calm  0.04 / 0.10-0.16 (3)      0.03-0.04 / 0.11-0.14 (2) 0.17 / 0.38
+    motorboat      2  calm  0.01 / 0.06-0.08 (2)      0.01 / 0.05-0.06 (1)      0.12 / 0.18
+    motorboat      2  wind  0.02-0.03 / 0.11-0.12 (2) 0.02 / 0.09 (1)           0.12 / 0.18
+    motorboat-skid 2  calm  0.01 / 0.05-0.06 (2)      0.01 / 0.06-0.08 (1)      0.14 / 0.33
+    motorboat-skid 2  wind  0.03 / 0.12 (2)           0.02 / 0.09-0.10 (1)      0.14 / 0.32
+    rover          2  calm  0.01 / 0.07 (2)           0.01 / 0.05-0.06 (1)      0.12 / 0.18
+    rover-skid     2  calm  0.01 / 0.06 (2)           0.01 / 0.04 (1)           0.12 / 0.19
+    motorboat      5  calm  0.04 / 0.10-0.16 (3)      0.03-0.04 / 0.11-0.14 (3) 0.17 / 0.38
     motorboat      5  wind  0.04-0.06 / 0.16-0.39 (5) 0.04-0.06 / 0.13-0.18 (3) 0.18 / 0.39
-    motorboat-skid 5  calm  0.05 / 0.16-0.24 (3)      0.05-0.06 / 0.15-0.24 (2) 0.22 / 0.69
+    motorboat-skid 5  calm  0.05 / 0.16-0.24 (3)      0.05-0.06 / 0.15-0.24 (3) 0.22 / 0.69
     motorboat-skid 5  wind  0.06-0.07 / 0.18-0.25 (3) 0.05-0.07 / 0.15-0.23 (3) 0.22 / 0.67
-    rover          5  calm  0.04 / 0.11-0.17 (3)      0.03 / 0.10-0.15 (2)      0.18 / 0.39
-    rover-skid     5  calm  0.03 / 0.08-0.15 (7)      0.02-0.04 / 0.08-0.14 (2) 0.16 / 0.77
+    rover          5  calm  0.04 / 0.11-0.17 (3)      0.03-0.04 / 0.10-0.18 (3) 0.18 / 0.39
+    rover-skid     5  calm  0.03 / 0.08-0.15 (7)      0.02-0.04 / 0.08-0.15 (3) 0.16 / 0.77
 
 (the 5 m/s defaults rows: the same loop flown as ``--yaw-kp 1 --yaw-kd 0`` on the code before
 the line loop was its own, three runs each alternated with the former defaults; the rover-skid's
