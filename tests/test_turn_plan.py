@@ -256,7 +256,7 @@ def test_a_chained_trackline_started_far_from_its_planned_turn_flies_its_line(
                              ("StartFlag", "Next"), ("Lead", "5")))
     assert isinstance(first, TrackLine) and isinstance(then, TrackLine)
     link_track_lines([first, then])
-    first.flown = (FlownLine((0.0, 0.0), (100.0, 0.0)),)     # the first line flown to its end
+    first.last_flown = FlownLine((0.0, 0.0), (100.0, 0.0))     # the first line, flown to its end
     then.start(0.0)
     then.step(nav_at(1.0, x=where[0], y=where[1], heading=180.0, speed=2.0), 1.0)
     assert then.follower is not None

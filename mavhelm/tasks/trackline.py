@@ -369,8 +369,8 @@ class RouteTask(SteeringTask):
     plans_turns = False
     """Whether the route's corners are planned turns (``turn_plan``): its lines are then left
     a turn-in early (``turn_in``) and each is entered by its planned path."""
-    flown: tuple[FlownLine, ...] = ()
-    """The last two lines flown before the current one, the latest last."""
+    last_flown: FlownLine | None = None
+    """The line flown before the current one."""
 
     slowing = 1.0
     """The thrust fraction asked for the current line's corner (``corner_speed``), latched once
@@ -415,7 +415,7 @@ class RouteTask(SteeringTask):
         self.follower = None
         self.index = -1  # the target steered for; -1 until the first tick with a position
         self.segment_start_time = now
-        self.flown = ()
+        self.last_flown = None
         self.slowing = self.turning = 1.0
         self.slow_speed = None
         self.u_turn_held = False
@@ -460,8 +460,9 @@ class RouteTask(SteeringTask):
     def line_before(self, p1: Point2) -> Point2 | None:
         """The start of the line flown before the one that starts at ``p1``, if it ended
         there."""
-        if self.flown and distance(self.flown[-1][1], p1) < CHAIN_GAP:
-            return self.flown[-1][0]
+        last = self.last_flown
+        if last is not None and distance(last.p2, p1) < CHAIN_GAP:
+            return last.p1
         return None
 
     def turn_in(self, k: int, speed: float | None = None) -> float:
@@ -571,9 +572,8 @@ class RouteTask(SteeringTask):
         p2 = self.target(k)
         self.index = k
         if self.follower is not None:
-            self.flown = (*self.flown[-1:], FlownLine(
-                self.follower.p1, self.follower.p2,
-                turn_plan.is_half_circle(self.follower.entry)))
+            self.last_flown = FlownLine(self.follower.p1, self.follower.p2,
+                                        turn_plan.is_half_circle(self.follower.entry))
         if p2 is None:
             self.follower = None
             return False
@@ -584,7 +584,7 @@ class RouteTask(SteeringTask):
         lead = self.current_lead()
         self.follower = LineFollower(p1, p2, lead)
         if entry_from is not None and self.plans_turns:
-            last = self.flown[-1] if self.flown else None
+            last = self.last_flown
             after_half_circle = last is not None and last.half_circle and \
                 distance(last.p2, p1) < CHAIN_GAP
             self.follower.entry = turn_plan.entry_path(entry_from, p1, p2, self.after(k), lead,
@@ -690,7 +690,7 @@ class TrackLine(RouteTask):
         if k == 0 and self.p1 is not None:
             p1 = (self.p1[0], self.p1[1])
             if self.previous is not None:
-                self.flown = self.previous.flown
+                self.last_flown = self.previous.last_flown
             if entry_from is None:
                 entry_from = self.line_before(p1)
         started = super().start_line(k, p1, now, entry_from)
