@@ -804,7 +804,7 @@ class EKF:
                 if self.t + dt >= until:
                     self._wander = None
         self.t += dt
-        self._tidy(state, symmetrise=False)  # F P Fᵀ + Q keeps P symmetric
+        self._tidy(state, updated=False)
 
     def _along_track_noise(self, P: np.ndarray, h: float, pp: float, pv: float,
                            vv: float) -> None:
@@ -1164,15 +1164,23 @@ class EKF:
             P[:, i] = 0.0
             P[i, i] = variance
 
-    def _tidy(self, state: list[float], symmetrise: bool = True) -> None:
+    def _tidy(self, state: list[float], updated: bool = True) -> None:
         """Store the new ``state`` (floats) with yaw wrapped, keep P symmetric, recover from a
-        broken covariance, reset silly rates, check the uncertainty limit."""
+        broken covariance, reset silly rates, check the uncertainty limit.
+
+        After a prediction (``updated`` False) only finiteness is checked: F P Fᵀ + Q is
+        symmetric, and positive definite when P was, so the factorisation that proves it
+        waits for the update, where rounding can break it (one LAPACK call a tick less)."""
         kf, cfg = self.kf, self.config
-        if symmetrise:
+        if updated:
             P = kf.P + kf.P.T
             P *= 0.5  # 0.5 (P + Pᵀ), one temporary fewer
             kf.P = P
-        if self._healthy(state):
+            sound = self._healthy(state)
+        else:
+            sound = math.isfinite(np.add.reduce(kf.P, None) + sum(state)) \
+                or self._healthy(state)  # a sum that overflowed: the entries decide
+        if sound:
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
             kf.x[:, 0] = state
