@@ -135,6 +135,7 @@ def main() -> None:
         while clock.now() < end:
             now = clock.now()
             companion.tick(now)
+            companion.idle()
             if last is not None:
                 ticks.setdefault(name, []).append(now - last)
             last = now

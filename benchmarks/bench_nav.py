@@ -167,26 +167,35 @@ def use_twenty_tasks() -> None:
 
 def tick_with_ekf() -> tuple[float, float]:
     """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
-    20 helm tasks: pNav's and pHelm's share of each companion tick, and the whole tick (wall
-    and the thread's CPU time). Returns the whole tick's p99, wall and CPU (s)."""
+    20 helm tasks, logging as ``mavhelm run`` does (.alog, .olog, .xlog): pNav's and pHelm's
+    share of each companion tick, and the whole tick (wall and the thread's CPU time); then
+    the idle time after it (logs written, garbage collected). Returns the whole tick's p99,
+    wall and CPU (s)."""
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
     use_twenty_tasks()
     with tempfile.TemporaryDirectory() as folder:
-        run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder))
+        run = nav_sim_rig.start(DEAD_RECKONING, tmp_path=Path(folder), logs=True)
         try:
             companion = run.run.companion
             companion.community.profile = True
             cpu: list[float] = []
-            tick = companion.tick
+            idle_cpu: list[float] = []
+            tick, idle = companion.tick, companion.idle
 
             def timed_tick(now: float) -> None:
                 t0 = time.thread_time()
                 tick(now)
                 cpu.append(time.thread_time() - t0)
 
+            def timed_idle() -> None:
+                t0 = time.thread_time()
+                idle()
+                idle_cpu.append(time.thread_time() - t0)
+
             companion.tick = timed_tick  # type: ignore[method-assign]
+            companion.idle = timed_idle  # type: ignore[method-assign]
             run.run.hand_over()
             run.run.run_for(300.0)
             seconds = companion.community.app_seconds
@@ -200,6 +209,12 @@ def tick_with_ekf() -> tuple[float, float]:
             whole = run.run.companion_tick_seconds
             print(f"  whole companion tick {percentiles_us(whole)}")
             print(f"  whole tick, CPU      {percentiles_us(cpu)}")
+            print(f"  idle time after it, CPU (logs written, garbage collected) "
+                  f"{percentiles_us(idle_cpu)}")
+            collector = companion.collector
+            if collector.seconds:
+                print(f"    of which garbage collections by generation "
+                      f"{collector.collections}, each {percentiles_us(collector.seconds)}")
             return float(np.percentile(whole, 99)), float(np.percentile(cpu, 99))
         finally:
             run.close()

@@ -118,6 +118,7 @@ def measure(seconds: float) -> None:
                 companion.tick(clock.now())
                 cpu.append(time.thread_time() - c0)
                 wall.append(time.perf_counter() - w0)
+                companion.idle()
                 for m in companion.bus.fetch("bench"):
                     if m.name == "HELM_ONLINE" and m.double == 1.0 and online_at is None:
                         online_at = clock.now()

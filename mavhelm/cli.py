@@ -63,6 +63,7 @@ def _tick_until_stopped(companion, clock, exit_at_end: bool) -> None:
     next_tick = clock.now()
     while True:
         companion.tick(clock.now())
+        companion.idle()
         if exit_at_end and companion.mission_over():
             print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
             return

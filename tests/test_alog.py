@@ -20,6 +20,7 @@ def run_logger(path: Path) -> tuple[AlogLogger, Bus, SimClock]:
 def tick(logger: AlogLogger, bus: Bus, clock: SimClock) -> None:
     logger.on_mail(bus.fetch(logger.name), clock.now())
     logger.iterate(clock.now())
+    logger.idle()
 
 
 def test_round_trip_keeps_names_sources_values_and_times(tmp_path: Path) -> None:

@@ -30,6 +30,9 @@ class MemoryLog:
     def xlog(self, lines: list[str]) -> None:
         self.xlog_lines.extend(lines)
 
+    def flush(self) -> None:
+        pass
+
 
 class Rig:
     def __init__(self, body: str) -> None:

@@ -502,8 +502,8 @@ def test_the_rig_sees_real_mavlink_both_ways():
     assert {m.get_type() for m in result.written_by_receive} == {
         "COMMAND_LONG", "PARAM_REQUEST_READ"}  # streams; MAV_GCS_SYSID (who may command)
     assert [m.get_type() for m in result.written_by_send] == [
-        "HEARTBEAT", "NAMED_VALUE_FLOAT", "NAMED_VALUE_FLOAT", "SET_ATTITUDE_TARGET"]
-    assert [(m.name, m.value) for m in result.written_by_send[1:3]] == [
+        "SET_ATTITUDE_TARGET", "HEARTBEAT", "NAMED_VALUE_FLOAT", "NAMED_VALUE_FLOAT"]
+    assert [(m.name, m.value) for m in result.written_by_send[2:4]] == [
         ("DES_RUDDER", 10.0), ("DES_THRUST", 50.0)]
     [target] = result.targets()
     assert target.body_yaw_rate == f32(math.radians(45.0))  # 10 of MAXRUDDER 20 × MaxTurnRate 90

@@ -28,6 +28,7 @@ from mavhelm.companion.tlog_writer import TlogWriter
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import Clock
+from mavhelm.core.collector import IdleCollector
 from mavhelm.core.community import Community
 from mavhelm.core.errors import LocatedError, SettingError
 from mavhelm.core.geodesy import Origin, mission_origin
@@ -150,6 +151,7 @@ class Companion:
     plan: Plan
     nav_logs: NavLogFiles | None = None
     tlog: TlogWriter | None = None
+    collector: IdleCollector = dataclasses.field(default_factory=IdleCollector)
 
     @classmethod
     def build(cls, mission: Mission | str | Path, clock: Clock, *, connect: str | None = None,
@@ -200,6 +202,15 @@ class Companion:
     def tick(self, now: float) -> None:
         self.community.tick(now)
 
+    def idle(self) -> None:
+        """The loop's time between a tick and its sleep: the logs are written and flushed,
+        and garbage collected (:mod:`mavhelm.core.collector`), here rather than inside a
+        tick, between the data coming in and the commands going out."""
+        self.community.idle()
+        if self.tlog is not None:
+            self.tlog.flush()
+        self.collector.idle()
+
     def reload(self, now: float) -> None:
         """RESTART_HELM (spec 1): re-read the mission file and its TaskFile and rebuild the
         helm. The new mission is read and checked whole first; on any error the running
@@ -238,6 +249,7 @@ class Companion:
         return self.helm.mission_ended and (handback is None or handback.done)
 
     def close(self) -> None:
+        self.collector.close()
         self.community.close()
         if self.nav_logs is not None:
             self.nav_logs.close()

@@ -3,8 +3,8 @@
 The navigator produces the lines (pure); this writes them where the mission says: the folder
 ``NAV_LOG_PATH`` or the alog's, named ``<NAV_LOG_STEM>[_<creation time>].olog/.xlog``. The
 time stamp is MOOS's ``_DD_MM_YYYY_____HH_MM_SS`` style so logs of successive runs sort and
-never overwrite each other. Lines are flushed every tick, as the alog is: after a crash the
-logs hold everything up to it.
+never overwrite each other. Lines are flushed after every tick (in its idle time), as the alog
+is: after a crash the logs hold everything up to it.
 """
 
 from __future__ import annotations
@@ -38,10 +38,12 @@ class NavLogFiles:
 
     def olog(self, lines: list[str]) -> None:
         self._olog.write("\n".join(lines) + "\n")
-        self._olog.flush()
 
     def xlog(self, lines: list[str]) -> None:
         self._xlog.write("\n".join(lines) + "\n")
+
+    def flush(self) -> None:
+        self._olog.flush()
         self._xlog.flush()
 
     def close(self) -> None:

@@ -36,9 +36,21 @@ class TlogWriter:
             self._file.write(STAMP.pack(int(self.clock() * 1e6)) + frame)
             self.frames += 1
         except (OSError, ValueError, struct.error) as exc:
-            self.failed = str(exc)
-            if self.on_error is not None:
-                self.on_error(f"the .tlog {self.path} stopped: {exc}")
+            self._stop(exc)
+
+    def flush(self) -> None:
+        """Out to the file (after each tick, in its idle time): a crash loses at most a tick."""
+        if self.failed is not None:
+            return
+        try:
+            self._file.flush()
+        except (OSError, ValueError) as exc:
+            self._stop(exc)
+
+    def _stop(self, exc: Exception) -> None:
+        self.failed = str(exc)
+        if self.on_error is not None:
+            self.on_error(f"the .tlog {self.path} stopped: {exc}")
 
     def close(self) -> None:
         try:

@@ -221,6 +221,7 @@ def fly(session: TuneSession, clock: WallClock | AutopilotClock,
     next_tick = clock.now()
     while not session.finished:
         companion.tick(clock.now())
+        companion.idle()
         next_tick += companion.tick_period
         if next_tick < clock.now() - companion.tick_period:
             next_tick = clock.now()

@@ -31,6 +31,10 @@ class App:
     def iterate(self, now: float) -> None:
         """Do this tick's work; post with self.notify."""
 
+    def idle(self) -> None:
+        """Work that can wait until the tick's commands are out: the loop calls it after the
+        tick, before it sleeps (writing logs)."""
+
     def close(self) -> None:
         """Release files, ports and sockets."""
 

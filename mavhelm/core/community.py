@@ -44,6 +44,11 @@ class Community:
                 self.app_seconds[app.name].append(time.perf_counter() - t0)
         self.ticks += 1
 
+    def idle(self) -> None:
+        """The time between a tick and the loop's sleep: each app's deferred work."""
+        for app in self.apps:
+            app.idle()
+
     def close(self) -> None:
         for app in reversed(self.apps):
             app.close()

@@ -85,6 +85,7 @@ class SimulatedRun:
         t0 = time.perf_counter()
         self.companion.tick(now)
         self.companion_tick_seconds.append(time.perf_counter() - t0)
+        self.companion.idle()
         for m in self.companion.bus.fetch("harness"):
             if m.name in self.record or m.name.endswith("_ERROR"):
                 self.messages.append(m)

@@ -165,6 +165,9 @@ class NavLogSink(Protocol):
 
     def xlog(self, lines: list[str]) -> None: ...
 
+    def flush(self) -> None:
+        """Make what was written durable (called after each tick, in its idle time)."""
+
 
 def _entry(block: Block, *keys: str) -> Entry:
     """The last entry of the block with one of ``keys`` (where a cross-check points)."""
@@ -406,6 +409,10 @@ class Navigator(App):
         if self.watch is not None:
             for warning in self.watch.warnings(now):
                 self.notify("NAV_WARNING", warning)
+
+    def idle(self) -> None:
+        if self.log is not None:
+            self.log.flush()
 
     def _run_filters(self, now: float) -> None:
         fusion = self.fusion

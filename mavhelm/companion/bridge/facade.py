@@ -168,7 +168,14 @@ class MavlinkBridge:
     # -- output --------------------------------------------------------------------------------
 
     def send(self, mail: list[Message], now: float) -> None:
+        """A tick's whole output (commands, then telemetry): a bridge ticked by hand."""
         self.send_path.send(mail, now)
+
+    def send_commands(self, mail: list[Message], now: float) -> None:
+        self.send_path.command(mail, now)
+
+    def send_telemetry(self, now: float) -> None:
+        self.send_path.telemetry(now)
 
     def send_statustext(self, text: str, severity: int) -> None:
         self.send_path.send_statustext(text, severity)
@@ -215,8 +222,11 @@ class AutopilotOutput(App):
         self._mail = mail
 
     def iterate(self, now: float) -> None:
-        self.bridge.send(self._mail, now)
+        self.bridge.send_commands(self._mail, now)
         self._mail = []
+
+    def idle(self) -> None:
+        self.bridge.send_telemetry(self.bus.clock.now())
 
     def close(self) -> None:
         self.bridge.close()

@@ -1,7 +1,8 @@
 """MAVLink out: the helm's demands, what the ground station sees, and replies.
 
-The companion's HEARTBEAT once a second, NAMED_VALUE_FLOAT at ``NamedValueRate``; every tick
-while online the ``DESIRED_*`` demands through the actuation profile and the servo outputs.
+Every tick while online the ``DESIRED_*`` demands through the actuation profile and the servo
+outputs; after the tick, in its idle time, the companion's HEARTBEAT once a second and
+NAMED_VALUE_FLOAT at ``NamedValueRate``.
 Nothing non-finite or out of range is ever sent: 0 goes instead and ``MAVLINK_OUTPUT_REFUSED``
 says why. Also the end-of-mission hand-back (a ``ModeRequest``), STATUSTEXT lines, third-party
 replies and TUNNEL payloads.
@@ -60,10 +61,14 @@ class OutputPath:
         self.next_heartbeat = 0.0
 
     def send(self, mail: list[Message], now: float) -> None:
+        """A whole tick's output: the commands, then the telemetry."""
+        self.command(mail, now)
+        self.telemetry(now)
+
+    def telemetry(self, now: float) -> None:
+        """What only the ground station reads, and can wait for the tick's idle time: the
+        companion's HEARTBEAT once a second and the NAMED_VALUE_FLOATs at their rate."""
         bridge = self.bridge
-        for m in mail:
-            if m.name in NAMED_VALUES and m.is_double:
-                self.named_values[NAMED_VALUES[m.name]] = m.double
         if now >= self.next_heartbeat:
             self.next_heartbeat = now + 1.0
             bridge.link.mav.heartbeat_send(
@@ -76,6 +81,14 @@ class OutputPath:
             if self.next_named_values <= now:
                 self.next_named_values = now + period
             self.send_named_values(now)
+
+    def command(self, mail: list[Message], now: float) -> None:
+        """What the tick sends at once: the helm's demands, a hand-back or an operator's
+        mode request, replies to guests; the values the telemetry will show are noted."""
+        bridge = self.bridge
+        for m in mail:
+            if m.name in NAMED_VALUES and m.is_double:
+                self.named_values[NAMED_VALUES[m.name]] = m.double
         for m in mail:
             if m.name == "HELM_HANDBACK":
                 self.request_handback(m.string)
