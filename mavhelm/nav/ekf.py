@@ -1168,9 +1168,11 @@ class EKF:
         """Store the new ``state`` (floats) with yaw wrapped, keep P symmetric, recover from a
         broken covariance, reset silly rates, check the uncertainty limit.
 
-        After a prediction (``updated`` False) only finiteness is checked: F P Fᵀ + Q is
-        symmetric, and positive definite when P was, so the factorisation that proves it
-        waits for the update, where rounding can break it (one LAPACK call a tick less)."""
+        After a prediction (``updated`` False) only the state is checked: F P Fᵀ + Q of the
+        finite, positive definite P the last update left is symmetric, positive definite and
+        finite (it cannot overflow: the position-σ limit below takes the filter off-line
+        long before), so the checks of P wait for the update, where rounding can break it
+        (two numpy calls a tick less)."""
         kf, cfg = self.kf, self.config
         if updated:
             P = kf.P + kf.P.T
@@ -1178,8 +1180,7 @@ class EKF:
             kf.P = P
             sound = self._healthy(state)
         else:
-            sound = math.isfinite(np.add.reduce(kf.P, None) + sum(state)) \
-                or self._healthy(state)  # a sum that overflowed: the entries decide
+            sound = math.isfinite(sum(state)) or self._healthy(state)
         if sound:
             self._good = (state[I_X], state[I_Y], state[I_H])
         else:
