@@ -204,8 +204,9 @@ class Companion:
 
     def idle(self) -> None:
         """The loop's time between a tick and its sleep: the logs are written and flushed,
-        and garbage collected (:mod:`mavhelm.core.collector`), here rather than inside a
-        tick, between the data coming in and the commands going out."""
+        the ground station's telemetry sent and garbage collected
+        (:mod:`mavhelm.core.collector`) here, not inside a tick, between the data coming in
+        and the commands going out. Every loop that ticks a companion calls it."""
         self.community.idle()
         if self.tlog is not None:
             self.tlog.flush()

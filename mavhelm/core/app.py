@@ -33,7 +33,7 @@ class App:
 
     def idle(self) -> None:
         """Work that can wait until the tick's commands are out: the loop calls it after the
-        tick, before it sleeps (writing logs)."""
+        tick, before it sleeps (writing logs, the ground station's telemetry)."""
 
     def close(self) -> None:
         """Release files, ports and sockets."""
