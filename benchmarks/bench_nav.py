@@ -83,6 +83,11 @@ the bit (Plaza1 tracks and covariances compared).
   fix ~680, with the 5 Hz GPS fix and DVL reading ~900, the tick of the autopilot's 1 Hz
   messages ~1080 (iMAVLink 300 there against 70). So the work's p99 is that tick; the
   noise of this VM (every app 2–3× slower for a few ticks at a time) makes the rest.
+- The tick is now run three times (``--tick-runs``): the target line gives the median of the
+  runs' p99, and a line below it the p99 of the per-tick minimum (the work). The same code
+  within one afternoon: per-tick-minimum p99 1.07 ms in a quiet hour, 1.44 ms in a slow one
+  (single runs 1.45–2.06 ms; the Plaza1 replay 4.6 s then 5.3 s for a one-hour log, the EKF
+  45 then 47 µs): on this VM the figures move with the host's load as much as with the code.
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
@@ -91,17 +96,20 @@ the bit (Plaza1 tracks and covariances compared).
 
 from __future__ import annotations
 
+import argparse
 import math
 import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mavhelm.companion.alog import read_alog
 from mavhelm.core.bus import Message
+from mavhelm.core.collector import IdleCollector
 from mavhelm.core.mission import Block, load_mission
 from mavhelm.nav.ekf import EKF, Beacon, BodyVelocity, EKFConfig, Range, Yaw
 from mavhelm.nav.faults import FAULTS, applies, layout_of, with_fault
@@ -185,12 +193,20 @@ def use_twenty_tasks() -> None:
         nav_sim_rig.BOX = nav_sim_rig.BOX + extra
 
 
-def tick_with_ekf() -> tuple[float, float]:
-    """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
-    20 helm tasks, logging as ``mavhelm run`` does (.alog, .olog, .xlog): pNav's and pHelm's
-    share of each companion tick, and the whole tick (wall and the thread's CPU time); then
-    the idle time after it (logs written, garbage collected). Returns the whole tick's p99,
-    wall and CPU (s)."""
+@dataclass
+class TickRun:
+    """One run of the 20-task box patrol: per tick, wall and CPU time of the tick, CPU time of
+    the idle time after it, and each app's share."""
+
+    wall: list[float]
+    cpu: list[float]
+    idle: list[float]
+    apps: dict[str, list[float]]
+    collector: IdleCollector
+    tasks: int
+
+
+def _tick_run() -> TickRun:
     from tests.support import nav_sim_rig
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
@@ -218,26 +234,48 @@ def tick_with_ekf() -> tuple[float, float]:
             companion.idle = timed_idle  # type: ignore[method-assign]
             run.run.hand_over()
             run.run.run_for(300.0)
-            seconds = companion.community.app_seconds
-            nav, helm = seconds["pNav"], seconds["pHelm"]
-            both = [a + b for a, b in zip(nav, helm, strict=True)]
-            count = len(companion.helm.tasks)
-            print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {count} "
-                  "helm tasks (10 Hz tick)")
-            print(f"  pNav          {percentiles_us(nav)}")
-            print(f"  helm+nav tick {percentiles_us(both)}")
-            whole = run.run.companion_tick_seconds
-            print(f"  whole companion tick {percentiles_us(whole)}")
-            print(f"  whole tick, CPU      {percentiles_us(cpu)}")
-            print(f"  idle time after it, CPU (logs written, garbage collected) "
-                  f"{percentiles_us(idle_cpu)}")
-            collector = companion.collector
-            if collector.seconds:
-                print(f"    of which garbage collections by generation "
-                      f"{collector.collections}, each {percentiles_us(collector.seconds)}")
-            return float(np.percentile(whole, 99)), float(np.percentile(cpu, 99))
+            return TickRun(run.run.companion_tick_seconds, cpu, idle_cpu,
+                           dict(companion.community.app_seconds), companion.collector,
+                           len(companion.helm.tasks))
         finally:
             run.close()
+
+
+def tick_with_ekf(runs: int = 3) -> tuple[tuple[float, float], float]:
+    """The box patrol of the simulator tests, with the EKF on GPS, compass, DVL and gyro and
+    20 helm tasks, logging as ``mavhelm run`` does (.alog, .olog, .xlog): pNav's and pHelm's
+    share of each companion tick, and the whole tick (wall and the thread's CPU time); then
+    the idle time after it (logs written, garbage collected).
+
+    Run ``runs`` times: the simulation is deterministic, so tick k does the same work in
+    every run, and the per-tick minimum over the runs is the work with this machine's noise
+    taken out (a few ticks at a time when every app runs 2–3× slower). Returns the median
+    over the runs of the whole tick's p99 (wall, CPU) and the p99 of the per-tick minimum
+    CPU (s)."""
+    done = [_tick_run() for _ in range(runs)]
+    first = done[0]
+    nav, helm = first.apps["pNav"], first.apps["pHelm"]
+    both = [a + b for a, b in zip(nav, helm, strict=True)]
+    print(f"box patrol in mavhelm sim, EKF on GPS + compass + DVL + gyro, {first.tasks} "
+          f"helm tasks (10 Hz tick), logging; {runs} runs of 300 s, the first in detail:")
+    print(f"  pNav          {percentiles_us(nav)}")
+    print(f"  helm+nav tick {percentiles_us(both)}")
+    print(f"  whole companion tick {percentiles_us(first.wall)}")
+    print(f"  whole tick, CPU      {percentiles_us(first.cpu)}")
+    print(f"  idle time after it, CPU (logs written, telemetry sent, garbage collected) "
+          f"{percentiles_us(first.idle)}")
+    if first.collector.seconds:
+        print(f"    of which garbage collections by generation "
+              f"{first.collector.collections}, each {percentiles_us(first.collector.seconds)}")
+    for k, r in enumerate(done[1:], start=2):
+        print(f"  run {k}: whole tick, CPU {percentiles_us(r.cpu)}")
+    n = min(len(r.cpu) for r in done)
+    work = np.min(np.stack([r.cpu[:n] for r in done]), axis=0)
+    print(f"  per-tick minimum over the {runs} runs (the work, the noise taken out), CPU "
+          f"{percentiles_us(list(work))}")
+    wall = float(np.median([np.percentile(r.wall, 99) for r in done]))
+    cpu = float(np.median([np.percentile(r.cpu, 99) for r in done]))
+    return (wall, cpu), float(np.percentile(work, 99))
 
 
 def _plaza(folder: Path) -> tuple[Block, list[Message]]:
@@ -311,10 +349,16 @@ def main() -> None:
     ekf_updates(drift=True)
     hour = plaza_replay()
     plaza_faults()
-    p99 = tick_with_ekf()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tick-runs", type=int, default=3,
+                        help="runs of the 20-task tick (default 3; their per-tick minimum is "
+                             "the work without the machine's noise)")
+    args = parser.parse_args()
+    p99, work = tick_with_ekf(max(args.tick_runs, 1))
     print("targets (issue 15 item 7), on this machine now:")
     print(_target("EKF predict+update", cycle, 50, "us", 1e6))
-    print(_target("whole companion tick p99", p99, 1, "ms", 1e3))
+    print(_target("whole companion tick p99 (median of the runs)", p99, 1, "ms", 1e3))
+    print(f"    the work alone (per-tick minimum of the runs): p99 {work * 1e3:.2f} ms CPU")
     print(_target("one-hour log replayed", hour, 5, "s", 1.0))
 
 
