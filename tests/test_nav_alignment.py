@@ -85,3 +85,22 @@ def test_runs_that_disagree_make_no_estimate_and_old_ones_are_forgotten() -> Non
     assert found is not None and abs(math.degrees(found.correction) - 90.0) < 0.5
     a.clear()
     assert a.estimate() is None
+
+
+def test_fixes_that_move_while_the_odometry_stands_still_make_no_run() -> None:
+    """Standing still, LSQ fixes thrown about by range outliers can lie 8 m apart in one
+    direction again and again: a run only counts as far as the body velocity says the
+    vehicle went; without body-velocity data the fixes are taken as they come."""
+    still = MotionAlignment()
+    moving = MotionAlignment()
+    for k in range(400):
+        still.add_body_velocity(0.1 * k, 0.0, 0.0)
+        moving.add_body_velocity(0.1 * k, 1.5, 0.0)
+    _straight(still, 0.0, 40.0, 40.0)
+    _straight(moving, 0.0, 40.0, 40.0)
+    assert still.estimate() is None
+    found = moving.estimate()
+    assert found is not None and math.degrees(found.correction) == pytest.approx(-40.0, abs=0.5)
+    unmeasured = MotionAlignment()
+    _straight(unmeasured, 0.0, 40.0, 40.0)
+    assert unmeasured.estimate() is not None

@@ -18,7 +18,8 @@ system aligns its heading from GPS. Taken against the bias held at each reading,
 filter follows as it drifts (an integrated heading, 0.6°/s) leaves no correction, where the
 sensor's raw offset averaged over the window would lag it. A run while any body-velocity
 reading says the vehicle goes astern, or crabs beyond ``MAX_TURN``, is not used (its course
-is not its heading).
+is not its heading), nor one the body velocity says the vehicle did not travel (``MOVED``: the
+fixes moved, not the vehicle).
 
 Pure logic: the navigator (:mod:`mavhelm.nav.fusion`) feeds it and decides when to use it.
 """
@@ -50,6 +51,11 @@ TURNED_ROUND: Final = math.radians(120.0)
 filter would steer its dead reckoning backwards in the meantime."""
 MAX_SPREAD: Final = math.radians(15.0)
 """rad: their circular spread at most."""
+MOVED: Final = 0.5
+"""A run whose length the body-velocity readings over it do not make this share of is a fix
+error, not motion: a vehicle standing still between two LSQ fixes a range outlier threw 8 m
+apart (Plaza1 with 5 % of its ranges wrong: 25 such runs agreed within 2° on a −78° offset,
+and the heading was turned by it, 0.15 → 21.9 m)."""
 HEADING_EVERY: Final = 0.2
 FIX_EVERY: Final = 0.5
 """s: readings and fixes closer in time to the last one kept are not kept: a run's mean is as
@@ -84,6 +90,8 @@ class MotionAlignment:
         self._headings: deque[tuple[float, float, float]] = deque()
         """(t, sine, cosine) of each reading less the bias held, computed once."""
         self._astern: deque[float] = deque()
+        self._speeds: deque[tuple[float, float]] = deque()
+        """(t, speed over the ground the body velocity says, m/s)."""
         self._runs: deque[tuple[float, float, float]] = deque()
         """(t, sine, cosine) of each run's correction; their sums kept as runs come and go."""
         self._sums = (0.0, 0.0)
@@ -95,6 +103,7 @@ class MotionAlignment:
         self._fixes.clear()
         self._headings.clear()
         self._astern.clear()
+        self._speeds.clear()
         self._runs.clear()
         self._sums = (0.0, 0.0)
         self._estimate, self._fresh = None, True
@@ -111,8 +120,13 @@ class MotionAlignment:
             headings.popleft()
 
     def add_body_velocity(self, t: float, forward: float, starboard: float | None) -> None:
-        """A body-velocity reading (m/s): going astern, or crabbing beyond ``MAX_TURN``, the
-        course is not the heading."""
+        """A body-velocity reading (m/s): how far the vehicle went, and going astern, or
+        crabbing beyond ``MAX_TURN``, the course is not the heading."""
+        speeds = self._speeds
+        if not speeds or t - speeds[-1][0] >= HEADING_EVERY:
+            speeds.append((t, math.hypot(forward, starboard or 0.0)))
+            while speeds[0][0] < t - WINDOW:
+                speeds.popleft()
         if forward < 0.0 or (starboard is not None
                              and abs(math.atan2(starboard, forward)) > MAX_TURN):
             astern = self._astern
@@ -138,6 +152,10 @@ class MotionAlignment:
         t0, x0, y0 = start
         if any(t0 <= ta <= t for ta in _since(self._astern, t0)):
             return
+        dx, dy = x - x0, y - y0
+        speeds = [v for tv, v in _since(self._speeds, t0) if tv <= t]
+        if speeds and sum(speeds) / len(speeds) * (t - t0) < MOVED * math.hypot(dx, dy):
+            return
         readings = [(sa, ca) for th, sa, ca in _since(self._headings, t0) if th <= t]
         if len(readings) < 2:
             return
@@ -145,7 +163,6 @@ class MotionAlignment:
         sm, cm = math.sin(mean), math.cos(mean)
         if min(ca * cm + sa * sm for sa, ca in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
-        dx, dy = x - x0, y - y0
         correction = mean - course_yaw(dx, dy)
         sr, cr = math.sin(correction), math.cos(correction)
         runs.append((t, sr, cr))
