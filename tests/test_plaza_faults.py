@@ -29,16 +29,21 @@ PLAZA_FAULTS = ("heading_wander", "heading_drift", "heading_jumps", "heading_stu
                 "beacon_moved", "range_outliers")
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+def _converted(folder: Path) -> tuple[Path, Path]:
+    """Plaza1 as an .alog and its pNav mission in ``folder``."""
     if not MAT.exists():
         pytest.skip(f"the Plaza data set is absent: {MAT}")
-    folder = tmp_path_factory.mktemp("plaza_faults")
     alog, mission = folder / "plaza1.alog", folder / "plaza1.moos"
     done = subprocess.run([sys.executable, str(EXAMPLE / "convert.py"), str(MAT), str(alog),
                            "--mission", str(mission)], capture_output=True, text=True,
                           check=False)
     assert done.returncode == 0, done.stderr
+    return alog, mission
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    alog, mission = _converted(tmp_path_factory.mktemp("plaza_faults"))
     done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(mission),
                            str(alog), "--fault", "all", "--no-nav-log"],
                           capture_output=True, text=True, check=False)
@@ -116,12 +121,7 @@ def test_other_draws_that_broke_the_floor_stay_under_it(report, tmp_path, fault,
     18° wrong); an offset short of turned-round must now last 25 s. The outliers: standing
     still, LSQ fixes thrown 8 m apart made 25 runs agreeing on a −78° offset (2.89 m); a run
     the odometry did not travel is no longer one."""
-    folder = tmp_path
-    alog, mission = folder / "plaza1.alog", folder / "plaza1.moos"
-    done = subprocess.run([sys.executable, str(EXAMPLE / "convert.py"), str(MAT), str(alog),
-                           "--mission", str(mission)], capture_output=True, text=True,
-                          check=False)
-    assert done.returncode == 0, done.stderr
+    alog, mission = _converted(tmp_path)
     done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(mission),
                            str(alog), "--fault", fault, "--seed", str(seed),
                            "--no-nav-log"], capture_output=True, text=True, check=False)
