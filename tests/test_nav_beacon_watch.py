@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
-from mavhelm.nav.beacon_watch import BIAS_LIMIT, SWING, BeaconWatch
-from mavhelm.nav.ekf import EKF, Beacon, EKFConfig
+from mavhelm.nav.beacon_watch import AGREEMENT, BIAS_LIMIT, LOCKED_OUT, SWING, BeaconWatch
+from mavhelm.nav.ekf import EKF, Beacon, EKFConfig, Range
 from mavhelm.nav.filter_safety import BEACON
 
 BEACONS = (Beacon("A", 0, 0), Beacon("B", 50, 0), Beacon("C", 0, 50, offset=2.0),
@@ -81,3 +82,46 @@ def test_no_more_than_a_minority_is_held_off_its_survey() -> None:
     assert len(decisions) == 1 and len(watch.weights) == 1
     assert [name for name, (deviation, _) in watch.deviations(ekf).items()
             if deviation > BIAS_LIMIT] == ["A", "B", "C", "D"]
+
+
+def test_good_ranges_refused_in_a_row_lock_a_beacon_out() -> None:
+    """Ranges refused against a wrong learned offset agree with each other: after
+    ``LOCKED_OUT`` of them the watch says the offset is doubted (the owner re-opens it)."""
+    watch = BeaconWatch()
+    refusals = [8.1, 8.4, 7.9, 8.3, 8.2]
+    assert len(refusals) == LOCKED_OUT
+    decisions = [watch.refused(float(k), "B", False, y, 1.0) for k, y in enumerate(refusals)]
+    assert decisions[:-1] == [None] * (LOCKED_OUT - 1)
+    last = decisions[-1]
+    assert last is not None and last.kind == BEACON and last.t == LOCKED_OUT - 1
+    assert "beacon B's last 5 ranges were all refused" in last.why and "+8.2 m" in last.why
+    assert watch.refused(9.0, "B", False, 8.0, 1.0) is None  # said once; counting again
+
+
+@pytest.mark.parametrize("fates", [
+    [(False, 20.0), (False, -15.0), (False, 40.0), (False, -8.0), (False, 12.0)],  # outliers
+    [(False, 8.0), (False, 8.1), (True, 0.2), (False, 8.2), (False, 8.0), (False, 8.1)],
+    [(False, 8.0), (False, 8.1), (False, 8.2), (False, 8.0), (False, 8.0 + AGREEMENT + 0.1)],
+])
+def test_scattered_or_interrupted_refusals_are_no_lockout(fates) -> None:
+    watch = BeaconWatch()
+    assert all(watch.refused(float(k), "A", accepted, y, 1.0) is None
+               for k, (accepted, y) in enumerate(fates))
+
+
+def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:
+    """An offset learned 8 m wrong refuses every good range; re-opened, the next one is used
+    and sets it."""
+    ekf = _ekf({"A": 0.0, "B": 8.0, "C": 2.0, "D": 0.0}, sigma=0.05, estimate_range_scale=False)
+    ekf.P[0, 0] = ekf.P[1, 1] = 0.01
+    good = Range(0.0, "B", math.dist((25.0, 25.0), (50.0, 0.0)))
+    assert not ekf.update(good).verdicts[0].accepted
+    verdict = ekf.update(good).verdicts[0]
+    assert verdict.innovation == pytest.approx(-8.0)
+    i = ekf.offset_index("B")
+    before = float(ekf.P[i, i])
+    ekf.reopen_offset("B")
+    assert float(ekf.P[i, i]) == pytest.approx(before + EKFConfig().offset_sigma**2)
+    assert np.all(np.linalg.eigvalsh(ekf.P) > 0)
+    assert ekf.update(good).verdicts[0].accepted
+    assert abs(float(ekf.x[i, 0])) < 0.5

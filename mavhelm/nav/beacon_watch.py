@@ -32,14 +32,25 @@ Measured (NAV RMS, NEES mean), with one beacon 5 m off its survey: Plaza1 1.01 m
 0.43 m, 3.6 (GPS alone 0.55 m). Clean runs and the other faults are unchanged (no beacon
 reported).
 
-Pure logic: the owner asks ``sigma`` for each range and ``review`` once a slice with ranges
-for the decisions to publish.
+A beacon can also be locked out by the filter rather than by its survey. Straight after the
+boot every offset is uncertain by metres, so one bad range accepted then is learned as the
+beacon's offset, and from then on every good range to that beacon fails the gate against it
+(Plaza1 with range outliers, one draw: a range 13 m short accepted 3 s after the boot, the
+next fifty of that beacon's ranges refused, NAV 3.0 m RMS). Bad ranges scatter; good ones
+refused against a wrong offset agree with each other. So when ``LOCKED_OUT`` ranges in a
+row to one beacon are refused and their innovations lie within ``AGREEMENT`` σ of each
+other, :meth:`BeaconWatch.refused` says so and the owner re-opens the offset
+(:meth:`~mavhelm.nav.ekf.EKF.reopen_offset`), which the next range sets again.
+
+Pure logic: the owner asks ``sigma`` for each range, tells ``refused`` each range's fate and
+calls ``review`` once a slice with ranges, for the decisions to publish.
 """
 
 from __future__ import annotations
 
 import math
 import statistics
+from collections import deque
 from typing import Final
 
 from mavhelm.nav.ekf import EKF
@@ -55,6 +66,11 @@ SWING: Final = 2.0
 """The least range error left, in deviations, as the bearing to a displaced beacon turns."""
 MIN_BEACONS: Final = 3
 """Beacons needed to tell which one is off (two agreeing against one)."""
+LOCKED_OUT: Final = 5
+"""Ranges to one beacon refused in a row, agreeing, before its offset is re-opened."""
+AGREEMENT: Final = 4.0
+"""Spread (largest less smallest innovation), in the ranges' σ, within which refused ranges
+agree: good ranges against a wrong offset."""
 
 
 class BeaconWatch:
@@ -66,6 +82,8 @@ class BeaconWatch:
         self.weights: dict[str, float] = {}
         """Beacons found off their survey (down-weighted), with their deviation (m) at the
         last review."""
+        self._refusals: dict[str, deque[float]] = {}
+        """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
 
     def deviations(self, ekf: EKF) -> dict[str, tuple[float, float]]:
         """Each beacon's deviation (m) from the median offset of every beacon (with three,
@@ -84,6 +102,26 @@ class BeaconWatch:
     def sigma(self, beacon: str, declared: float) -> float:
         deviation = self.weights.get(beacon)
         return declared if deviation is None else math.hypot(declared, SWING * deviation)
+
+    def refused(self, t: float, beacon: str, accepted: bool, innovation: float,
+                sigma: float) -> Decision | None:
+        """One range's fate: a decision when ``beacon`` is locked out (the owner re-opens its
+        offset)."""
+        if accepted:
+            if beacon in self._refusals:
+                self._refusals[beacon].clear()
+            return None
+        refusals = self._refusals.get(beacon)
+        if refusals is None:
+            refusals = self._refusals[beacon] = deque(maxlen=LOCKED_OUT)
+        refusals.append(innovation)
+        if len(refusals) < LOCKED_OUT or max(refusals) - min(refusals) > AGREEMENT * sigma:
+            return None
+        mean = statistics.fmean(refusals)
+        refusals.clear()
+        return Decision(t, BEACON, f"beacon {beacon}'s last {LOCKED_OUT} ranges were all "
+                        f"refused, agreeing with each other ({mean:+.1f} m against the "
+                        "filter): its learned range offset is doubted and re-opened")
 
     def review(self, t: float, ekf: EKF) -> list[Decision]:
         decisions = []

@@ -477,13 +477,15 @@ class Estimate:
 
 class Verdict(NamedTuple):
     """The fate of one observation in an update: its squared Mahalanobis distance against the
-    prior, its degrees of freedom, and whether it was used (a named tuple: immutable, and a
-    frozen dataclass cost as much to build as a third of a Kalman update)."""
+    prior, its degrees of freedom, whether it was used, and its (first row's) innovation,
+    measured less predicted (a named tuple: immutable, and a frozen dataclass cost as much to
+    build as a third of a Kalman update)."""
 
     obs: Observation
     d2: float
     dof: int
     accepted: bool
+    innovation: float = 0.0
 
 
 @dataclass
@@ -867,7 +869,7 @@ class EKF:
             elif S_inv is None and len(y) == 1:
                 S_inv = np.array([[1.0 / S.item(0, 0)]])  # what inv() gives for 1×1, bit for bit
             self._apply(rows.x, rows.r, idx, y, S, PHt, S_inv)
-        return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive)
+        return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive, residuals[first[k]])
                              for k, obs in enumerate(observations)])
 
     def _joint_test(self, alive: list[int], first: list[int], y: np.ndarray, S: np.ndarray
@@ -1084,6 +1086,13 @@ class EKF:
                                              if self.i_bias is not None else 0.0))
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
+
+    def reopen_offset(self, beacon: str) -> None:
+        """A beacon's range offset made as uncertain as at the start (its prior's 1-σ added to
+        its variance): the offset learned is no longer believed, and the beacon's next ranges
+        set it again. Only a diagonal grows, so P stays positive definite."""
+        i = self._offset_index[beacon]
+        self.kf.P[i, i] += self.config.offset_sigma**2
 
     def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
         """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is

@@ -512,6 +512,12 @@ class Fusion:
         self._note_coupling(kept)
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", d2=verdict.d2)
+            if isinstance(r.obs, Range) and ekf.config.learn_beacon_offsets:
+                lockout = self.beacon_watch.refused(t, r.obs.beacon, verdict.accepted,
+                                                    verdict.innovation, verdict.obs.sigma)
+                if lockout is not None:
+                    ekf.reopen_offset(r.obs.beacon)
+                    self._decide(lockout)
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
