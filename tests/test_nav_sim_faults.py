@@ -10,7 +10,7 @@ down-weighting alone, which left the compass a share of the heading growing with
 a doubt now adds the bias state, at 104 s; 0.70 m when only the 20-reading look back doubted
 it, at 135 s), drifting 180° within five minutes 0.35, heading jumps 0.34, stuck 0.35, 60 s
 without ranges 0.35, range outliers 0.34, GPS glitches 0.39,
-a beacon 5 m from its surveyed place 0.42 (0.84 m, NEES 20, before the beacon watch: against
+a beacon 5 m from its surveyed place 0.57 (0.84 m, NEES 20, before the beacon watch: against
 the GPS as declared, σ 2 m, the 0.8 m it was off was no disagreement at all; the beacon's
 learned range offset, unlike the other beacons', is)."""
 

@@ -11,36 +11,32 @@ offset unlike theirs (Plaza1: 4.0 m against 0.1–0.7 m; clean, all within 0.2 m
 :class:`BeaconWatch` takes each beacon's learned offset, less its prior, against the median of
 every beacon's (a delay shared by every beacon is a common offset, not a survey error). A
 beacon that deviates by more than ``BIAS_LIMIT``, ``SIGNIFICANCE`` σ clear of the filter's
-own uncertainty of its offset (straight after the boot every offset is uncertain by metres,
-and they disagree while the position settles), is reported and down-weighted: its ranges' σ
-is combined with ``SWING`` × the deviation. The swing is the least the error left can reach:
-the offset absorbs the mean of ``−d cos θ`` (at most ``d``), so as the bearing turns the
-error still left reaches ``d`` plus the offset's size, at least twice the offset. A beacon
-whose deviation falls back under half the limit is reported again and trusted as declared.
+uncertainty of that deviation (straight after the boot the offsets disagree while the
+position settles), is reported and all but left out: its ranges' σ is combined with
+``SWING`` × the deviation. Down-weighted only by the error left as the bearing turns (twice
+the deviation), its ranges held the position where it had drifted. The filter is then told to
+forget what the ranges taught it (the owner re-opens the other beacons' offsets to their
+prior and widens the position by the deviation) so that the beacons still trusted set them
+again. A beacon whose deviation falls back under half the limit is trusted as declared again.
+
 It needs three beacons (with two, which one is off cannot be told) and learned offsets
 (``EKF_BEACON_OFFSETS``), and holds at most a minority of them off at once (one of three or
 four, two of five): when more disagree, it is the position the offsets were learned against
 that is wrong, not the survey (Plaza1 with its heading 90° out: all four beacons were judged
-off their survey in the first 40 s under way, and the filter, down-weighting every range,
-took 20 minutes to come back: 3.2 m RMS; held to one, 2.2 m, back in 10 minutes).
-Down-weighting a beacon on any deviation, significant or not, scored a little better with a
-beacon off (Plaza1 0.64 m) but took the position evidence a heading watch needs when the
-heading wanders (the simulator: 0.38 → 0.73 m), so only a significant one counts.
+off their survey in the first 40 s under way). The first beacon to stand out need not be
+the one off its survey: the position's error spreads over every offset. So the blame moves
+to a beacon whose deviation reaches ``SWITCH`` times that of the one held off, but not within
+``SETTLE`` s of the last change, while the filter re-learns.
 
-Measured (NAV RMS, NEES mean), with one beacon 5 m off its survey: Plaza1 1.01 m, 9.4 →
-0.75 m, 1.5 (beacon 0 reported at 148 s, 2.4 m); the simulator's box patrol 0.84 m, 20 →
-0.43 m, 3.6 (GPS alone 0.55 m). Clean runs and the other faults are unchanged (no beacon
-reported).
-
-A beacon can also be locked out by the filter rather than by its survey. Straight after the
-boot every offset is uncertain by metres, so one bad range accepted then is learned as the
-beacon's offset, and from then on every good range to that beacon fails the gate against it
-(Plaza1 with range outliers, one draw: a range 13 m short accepted 3 s after the boot, the
-next fifty of that beacon's ranges refused, NAV 3.0 m RMS). Bad ranges scatter; good ones
-refused against a wrong offset agree with each other. So when ``LOCKED_OUT`` ranges in a
-row to one beacon are refused and their innovations lie within ``AGREEMENT`` σ of each
-other, :meth:`BeaconWatch.refused` says so and the owner re-opens the offset
-(:meth:`~mavhelm.nav.ekf.EKF.reopen_offset`), which the next range sets again.
+Measured (NAV RMS), with one beacon 5 m off its survey in a random direction: the
+simulator's box patrol (three beacons and a GPS) 0.57 m, the right beacon found at 70 s (GPS
+alone 0.55 m). Plaza1 (four beacons, odometry, no GPS), sixteen draws: mean 1.94 m, five
+under 1.2 m, the others 1.7–2.9 m (2.02 m with the offsets uncorrelated and the blame
+fixed; 0.37 m with the survey right). Where it fails, the filter settles early to a position
+and offsets that agree with every beacon, the displaced one included, within the ranges'
+noise, and the offsets then single out the wrong beacon: telling the displaced one needs a
+track the ranges did not shape (tried and not kept: the beacons' positions as filter
+states, σ 2 m: 1.2–1.8 m).
 
 Pure logic: the owner asks ``sigma`` for each range, tells ``refused`` each range's fate and
 calls ``review`` once a slice with ranges, for the decisions to publish.
@@ -53,6 +49,8 @@ import statistics
 from collections import deque
 from typing import Final
 
+import numpy as np
+
 from mavhelm.nav.ekf import EKF
 from mavhelm.nav.filter_safety import BEACON, Decision
 
@@ -62,8 +60,20 @@ Plaza1: every offset within 0.2 m of the others')."""
 SIGNIFICANCE: Final = 3.0
 """How many σ of the filter's own offset uncertainty the deviation must clear: a beacon's
 offset straight after the boot (σ 5 m) proves nothing."""
-SWING: Final = 2.0
-"""The least range error left, in deviations, as the bearing to a displaced beacon turns."""
+SWING: Final = 50.0
+"""A beacon off its survey has its ranges' σ combined with this many deviations: all but
+left out. With twice the deviation (the least error its ranges still carry as the bearing
+turns) they held the position where it had drifted; on eight Plaza1 draws, with an earlier
+form of the watch, 2, 5, 10 and 20 gave a mean NAV RMS of 1.82, 1.64, 1.42 and 1.30 m."""
+SWITCH: Final = 1.5
+"""How many times the deviation of the beacon held off its survey another's must reach for
+the blame to move to it: straight after the boot the position's error spreads over every
+offset, and the first to stand out need not be the one off its survey."""
+SETTLE: Final = 60.0
+"""s after a beacon is found off its survey before the blame may move to another: the
+filter, told to forget what that beacon taught it, takes a while to settle, and meanwhile the
+offsets it re-learns disagree (the simulator's three beacons: the blame went round all three
+in 40 s)."""
 MIN_BEACONS: Final = 3
 """Beacons needed to tell which one is off (two agreeing against one)."""
 LOCKED_OUT: Final = 5
@@ -82,22 +92,33 @@ class BeaconWatch:
         self.weights: dict[str, float] = {}
         """Beacons found off their survey (down-weighted), with their deviation (m) at the
         last review."""
+        self.newly_off: list[str] = []
+        """The beacons the last review found off their survey."""
+        self._moved = -math.inf
+        """When a beacon was last found off its survey."""
         self._refusals: dict[str, deque[float]] = {}
         """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
 
     def deviations(self, ekf: EKF) -> dict[str, tuple[float, float]]:
         """Each beacon's deviation (m) from the median offset of every beacon (with three,
         the others' median would be their mean, and one beacon off would drag it), and the
-        filter's 1-σ of its offset (m)."""
-        beacons = ekf.beacons
+        filter's 1-σ of its offset less the others' mean (m): the shared delay, however
+        uncertain, is no evidence either way."""
+        beacons = list(ekf.beacons)
         if len(beacons) < MIN_BEACONS or not ekf.config.learn_beacon_offsets:
             return {}
-        x, P = ekf.x, ekf.P
-        index = {name: ekf.offset_index(name) for name in beacons}
-        offsets = {name: float(x[i, 0]) - beacons[name].offset for name, i in index.items()}
+        x = ekf.x
+        index = [ekf.offset_index(name) for name in beacons]
+        offsets = {name: float(x[i, 0]) - ekf.beacons[name].offset
+                   for name, i in zip(beacons, index, strict=True)}
         median = statistics.median(offsets.values())
-        return {name: (abs(offset - median), math.sqrt(max(float(P[i, i]), 0.0)))
-                for (name, offset), i in zip(offsets.items(), index.values(), strict=True)}
+        n = len(index)
+        contrasts = np.full((n, n), -1.0 / (n - 1))
+        np.fill_diagonal(contrasts, 1.0)
+        block = ekf.P[np.ix_(index, index)]
+        variances = np.einsum("ij,jk,ik->i", contrasts, block, contrasts)
+        return {name: (abs(offset - median), math.sqrt(max(float(v), 0.0)))
+                for (name, offset), v in zip(offsets.items(), variances, strict=True)}
 
     def sigma(self, beacon: str, declared: float) -> float:
         deviation = self.weights.get(beacon)
@@ -124,22 +145,38 @@ class BeaconWatch:
                         "filter): its learned range offset is doubted and re-opened")
 
     def review(self, t: float, ekf: EKF) -> list[Decision]:
+        """The weights brought up to date; ``newly_off`` names the beacon just found off its
+        survey, if any (the owner makes the filter forget what it taught it)."""
         decisions = []
         found = self.deviations(ekf)
         most = (len(found) - 1) // 2
-        for name, (deviation, sigma) in sorted(found.items()):
-            if name not in self.weights:
-                if (deviation > BIAS_LIMIT and deviation > SIGNIFICANCE * sigma
-                        and len(self.weights) < most):
-                    self.weights[name] = deviation
-                    decisions.append(Decision(
-                        t, BEACON, f"beacon {name}'s ranges are biased {deviation:.1f} m "
-                        "against the other beacons': it is off its survey, its ranges "
-                        "down-weighted"))
-            elif deviation < BIAS_LIMIT / 2:
+        self.newly_off = []
+        settling = t - self._moved < SETTLE
+        for name in list(self.weights):
+            deviation = found[name][0] if name in found else 0.0
+            if deviation < BIAS_LIMIT / 2 and not settling:
                 del self.weights[name]
                 decisions.append(Decision(t, BEACON, f"beacon {name}'s ranges agree with the "
                                           "other beacons' again: trusted as declared"))
             else:
                 self.weights[name] = deviation
+        suspects = [(deviation, name) for name, (deviation, sigma) in found.items()
+                    if name not in self.weights and deviation > BIAS_LIMIT
+                    and deviation > SIGNIFICANCE * sigma]
+        if not suspects:
+            return decisions
+        deviation, name = max(suspects)
+        if len(self.weights) >= most:
+            least = min(self.weights, key=self.weights.__getitem__, default=None)
+            if least is None or deviation < SWITCH * self.weights[least] or settling:
+                return decisions
+            del self.weights[least]
+            decisions.append(Decision(t, BEACON, f"beacon {least}'s ranges trusted as declared "
+                                      f"again: beacon {name}'s disagree more"))
+        self.weights[name] = deviation
+        self.newly_off.append(name)
+        self._moved = t
+        decisions.append(Decision(
+            t, BEACON, f"beacon {name}'s ranges are biased {deviation:.1f} m against the "
+            "other beacons': it is off its survey, its ranges all but left out"))
         return decisions

@@ -249,9 +249,14 @@ class EKFConfig:
       clock-rate error for radio ranging. ``sigma_range_scale`` its initial 1-σ,
       ``range_scale_noise`` its random walk (1/√s). Only when there are beacons.
     - ``learn_beacon_offsets`` (EKF_BEACON_OFFSETS): ``sigma_beacon_offset`` (m) is the
-      initial 1-σ of every beacon's range offset, around the beacon's own prior, and
-      ``beacon_offset_noise`` its random walk (m/√s); when false the offsets are held at
-      their priors.
+      initial 1-σ of the delay every beacon's range shares (a clock or a turn-around common
+      to the net), ``sigma_offset_spread`` (m) that of each beacon's own part, around the
+      beacon's own prior; the offsets' prior is correlated accordingly (each offset's
+      variance is the sum, two offsets' covariance the shared part). ``beacon_offset_noise``
+      is each offset's random walk (m/√s). When false the offsets are held at their priors.
+      Why a shared part: left each free by metres, a beacon's offset absorbs a bad range
+      heard early, or part of a beacon's survey error, and the position drifts with it;
+      Plaza1's four UWB offsets, learned, lie within 0.2 m of each other.
     - ``gate_probability`` (EKF_GATE): χ² acceptance probability of the data rejection
       (0.999: a lone observation is refused beyond 3.3 σ).
     - ``max_speed`` (m/s, EKF_MAX_SPEED), ``max_yaw_rate`` (rad/s): rate states beyond these
@@ -296,6 +301,7 @@ class EKFConfig:
     range_scale_noise: float = 1e-5
     learn_beacon_offsets: bool = setting(EKF_BEACON_OFFSETS)
     sigma_beacon_offset: float = 5.0
+    sigma_offset_spread: float = 0.5
     beacon_offset_noise: float = 1e-3
     gate_probability: float = setting(EKF_GATE)
     max_speed: float = setting(EKF_MAX_SPEED)
@@ -315,7 +321,8 @@ class EKFConfig:
         check_config(self)
         for name in ("sigma_velocity", "sigma_yaw_rate", "sigma_yaw_bias", "sigma_yaw_drift",
                      "sigma_speed_scale", "sigma_range_scale",
-                     "sigma_beacon_offset", "max_yaw_rate", "sigma_tide"):
+                     "sigma_beacon_offset", "sigma_offset_spread", "max_yaw_rate",
+                     "sigma_tide"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
@@ -696,11 +703,17 @@ class EKF:
             var[self.i_scale] = cfg.sigma_range_scale**2
         for name, i in self._offset_index.items():
             state[i] = self.beacons[name].offset
-            var[i] = cfg.offset_sigma**2
         if not cfg.mobile:
             var[list(self._rate_indices())] = 0.0
         self.kf.x = state.reshape(-1, 1)
-        self.kf.P = np.diag(var)
+        P = np.diag(var)
+        offsets = list(self._offset_index.values())
+        if cfg.learn_beacon_offsets:
+            P[np.ix_(offsets, offsets)] = cfg.sigma_beacon_offset**2
+            P[offsets, offsets] += cfg.sigma_offset_spread**2
+        else:
+            P[offsets, offsets] = cfg.offset_sigma**2
+        self.kf.P = P
 
     def _rate_indices(self) -> tuple[int, ...]:
         return (I_VX, I_VY, I_VH) + ((self.i_vz,) if self.i_vz is not None else ())
@@ -1087,12 +1100,23 @@ class EKF:
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
 
-    def reopen_offset(self, beacon: str) -> None:
-        """A beacon's range offset made as uncertain as at the start (its prior's 1-σ added to
-        its variance): the offset learned is no longer believed, and the beacon's next ranges
-        set it again. Only a diagonal grows, so P stays positive definite."""
-        i = self._offset_index[beacon]
-        self.kf.P[i, i] += self.config.offset_sigma**2
+    def reopen_offsets(self, beacons: Iterable[str]) -> None:
+        """The range offsets of ``beacons`` forgotten: back to their priors, value and
+        covariance (uncorrelated with the rest of the state), so that their next ranges set
+        them again. Inflating their variance alone leaves what a bad range taught them in
+        the state. The block is the prior's, and the rows cleared: P stays positive
+        definite."""
+        cfg = self.config
+        index = [self._offset_index[name] for name in beacons]
+        if not index:
+            return
+        x, P = self.kf.x, self.kf.P
+        for name, i in zip(beacons, index, strict=False):
+            x[i, 0] = self.beacons[name].offset
+        P[index, :] = 0.0
+        P[:, index] = 0.0
+        P[np.ix_(index, index)] = cfg.sigma_beacon_offset**2
+        P[index, index] += cfg.sigma_offset_spread**2
 
     def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
         """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is

@@ -41,6 +41,8 @@ from mavhelm.nav.ekf import (
     I_VH,
     I_VX,
     I_VY,
+    I_X,
+    I_Y,
     Beacon,
     BodyVelocity,
     Depth,
@@ -512,11 +514,12 @@ class Fusion:
         self._note_coupling(kept)
         for r, verdict in zip(kept, result.verdicts, strict=True):
             self._log(r, "accepted" if verdict.accepted else "rejected", d2=verdict.d2)
-            if isinstance(r.obs, Range) and ekf.config.learn_beacon_offsets:
-                lockout = self.beacon_watch.refused(t, r.obs.beacon, verdict.accepted,
-                                                    verdict.innovation, verdict.obs.sigma)
+            used = verdict.obs
+            if isinstance(used, Range) and ekf.config.learn_beacon_offsets:
+                lockout = self.beacon_watch.refused(t, used.beacon, verdict.accepted,
+                                                    verdict.innovation, used.sigma)
                 if lockout is not None:
-                    ekf.reopen_offset(r.obs.beacon)
+                    self._forget(ekf, abs(verdict.innovation))
                     self._decide(lockout)
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
@@ -534,6 +537,17 @@ class Fusion:
         if any(isinstance(r.obs, Range) for r in kept):
             for decision in self.beacon_watch.review(t, ekf):
                 self._decide(decision)
+            for name in self.beacon_watch.newly_off:
+                self._forget(ekf, self.beacon_watch.weights[name], but=name)
+
+    def _forget(self, ekf: EKF, error: float, but: str | None = None) -> None:
+        """What the ranges taught the filter, doubted (:mod:`mavhelm.nav.beacon_watch`): a
+        beacon off its survey, or a bad range accepted at the boot, that locked out good
+        ones. Every beacon's offset but ``but``'s is re-opened to its prior and the
+        position widened by ``error`` (m), so that the ranges still trusted set them again."""
+        ekf.reopen_offsets([name for name in ekf.beacons if name != but])
+        ekf.P[I_X, I_X] += error**2
+        ekf.P[I_Y, I_Y] += error**2
 
     def _note_coupling(self, kept: list[Reading]) -> None:
         """A body velocity with a speed ties the heading to the motion for good."""

@@ -26,7 +26,7 @@ from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import Block
 from mavhelm.nav.chi_square import chi2_ppf
 from mavhelm.nav.ekf import EKF, Estimate
-from mavhelm.nav.filter_safety import DECISION_KINDS
+from mavhelm.nav.filter_safety import DECISION_KINDS, HEADING
 from mavhelm.nav.navigator import Navigator
 
 OWN_OUTPUTS = ("NAV_", "EKF_", "LSQ_")
@@ -176,7 +176,9 @@ class ReplayResult:
             made = [d.kind for d in fusion.decisions]
             lines.append("decisions: " + ", ".join(f"{kind} {made.count(kind)}"
                                                    for kind in DECISION_KINDS))
-            shown = fusion.decisions[:10]
+            first, later = fusion.decisions[:10], fusion.decisions[10:]
+            # the heading's stop-and-go notes crowd out the rarer decisions after the first ten
+            shown = first + [d for d in later if d.kind != HEADING][:10]
             lines += [f"  {d.t - self.start:8.1f} s  {d}" for d in shown]
             if len(fusion.decisions) > len(shown):
                 lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
