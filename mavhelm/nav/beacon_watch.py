@@ -38,6 +38,22 @@ noise, and the offsets then single out the wrong beacon: telling the displaced o
 track the ranges did not shape (tried and not kept: the beacons' positions as filter
 states, σ 2 m: 1.2–1.8 m).
 
+A beacon can also be locked out by the filter rather than by its survey. One bad range
+accepted straight after the boot, while the offsets are uncertain by metres, can leave a state
+against which every good range to some beacon fails the gate (Plaza1 with range outliers, one
+draw, the offsets then uncorrelated: a range 13 m short accepted 3 s after the boot, the next
+fifty of that beacon's ranges refused, NAV 3.0 m RMS). Bad ranges scatter; good ones refused
+against a wrong state agree with each other. So when ``LOCKED_OUT`` ranges in a row to one
+beacon are refused and their innovations lie within ``AGREEMENT`` σ of each other,
+:meth:`BeaconWatch.refused` says so and the owner makes the filter forget what the ranges
+taught it, as for a beacon off its survey (every offset back to its prior,
+:meth:`~mavhelm.nav.ekf.EKF.reopen_offsets`, the position widened by the innovation). On
+that draw, re-opening the locked-out beacon's offset alone gave 1.1 m; with the offsets'
+prior correlated (each beacon's own part 0.5 m) the bad range is refused and it scores
+0.38 m. The rule stays for what the prior does not cover, such as a still vehicle's first
+ranges with nothing else to check them against (``tests/test_nav_beacon_watch.py``: half
+the ranges refused to the end without it).
+
 Pure logic: the owner asks ``sigma`` for each range, tells ``refused`` each range's fate and
 calls ``review`` once a slice with ranges, for the decisions to publish.
 """
@@ -58,8 +74,8 @@ BIAS_LIMIT: Final = 1.0
 """m: a beacon's offset further than this from the beacons' median is a survey error (clean
 Plaza1: every offset within 0.2 m of the others')."""
 SIGNIFICANCE: Final = 3.0
-"""How many σ of the filter's own offset uncertainty the deviation must clear: a beacon's
-offset straight after the boot (σ 5 m) proves nothing."""
+"""How many σ of the filter's own uncertainty of the deviation it must clear: the offsets'
+differences straight after the boot prove nothing."""
 SWING: Final = 50.0
 """A beacon off its survey has its ranges' σ combined with this many deviations: all but
 left out. With twice the deviation (the least error its ranges still carry as the bearing
@@ -126,8 +142,8 @@ class BeaconWatch:
 
     def refused(self, t: float, beacon: str, accepted: bool, innovation: float,
                 sigma: float) -> Decision | None:
-        """One range's fate: a decision when ``beacon`` is locked out (the owner re-opens its
-        offset)."""
+        """One range's fate: a decision when ``beacon`` is locked out (the owner makes the
+        filter forget what the ranges taught it)."""
         if accepted:
             if beacon in self._refusals:
                 self._refusals[beacon].clear()
@@ -142,7 +158,7 @@ class BeaconWatch:
         refusals.clear()
         return Decision(t, BEACON, f"beacon {beacon}'s last {LOCKED_OUT} ranges were all "
                         f"refused, agreeing with each other ({mean:+.1f} m against the "
-                        "filter): its learned range offset is doubted and re-opened")
+                        "filter): the range offsets learned are doubted and re-opened")
 
     def review(self, t: float, ekf: EKF) -> list[Decision]:
         """The weights brought up to date; ``newly_off`` names the beacon just found off its
