@@ -132,7 +132,9 @@ def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:
     verdict = ekf.update(good).verdicts[0]
     assert verdict.innovation == pytest.approx(-8.0)
     i = ekf.offset_index("B")
-    ekf.reopen_offsets(["B"])
+    before = float(ekf.P[0, 0])
+    ekf.reopen_offsets(["B"], position_sigma=2.0)
+    assert float(ekf.P[0, 0]) == pytest.approx(before + 4.0)  # the position widened too
     config = EKFConfig()
     assert float(ekf.x[i, 0]) == 0.0  # its prior
     assert float(ekf.P[i, i]) == pytest.approx(config.sigma_beacon_offset**2

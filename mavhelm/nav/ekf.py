@@ -707,13 +707,19 @@ class EKF:
             var[list(self._rate_indices())] = 0.0
         self.kf.x = state.reshape(-1, 1)
         P = np.diag(var)
-        offsets = list(self._offset_index.values())
-        if cfg.learn_beacon_offsets:
-            P[np.ix_(offsets, offsets)] = cfg.sigma_beacon_offset**2
-            P[offsets, offsets] += cfg.sigma_offset_spread**2
-        else:
-            P[offsets, offsets] = cfg.offset_sigma**2
+        self._offset_prior(P, list(self._offset_index.values()))
         self.kf.P = P
+
+    def _offset_prior(self, P: np.ndarray, index: list[int]) -> None:  # noqa: N803
+        """The prior covariance of the offsets at ``index`` written into ``P``: the shared
+        delay's variance everywhere in their block, each one's own part on the diagonal (or
+        held at the prior when offsets are not learned)."""
+        cfg = self.config
+        if cfg.learn_beacon_offsets:
+            P[np.ix_(index, index)] = cfg.sigma_beacon_offset**2
+            P[index, index] += cfg.sigma_offset_spread**2
+        else:
+            P[index, index] = cfg.offset_sigma**2
 
     def _rate_indices(self) -> tuple[int, ...]:
         return (I_VX, I_VY, I_VH) + ((self.i_vz,) if self.i_vz is not None else ())
@@ -1100,23 +1106,23 @@ class EKF:
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
 
-    def reopen_offsets(self, beacons: Iterable[str]) -> None:
-        """The range offsets of ``beacons`` forgotten: back to their priors, value and
-        covariance (uncorrelated with the rest of the state), so that their next ranges set
-        them again. Inflating their variance alone leaves what a bad range taught them in
-        the state. The block is the prior's, and the rows cleared: P stays positive
-        definite."""
-        cfg = self.config
-        index = [self._offset_index[name] for name in beacons]
-        if not index:
-            return
+    def reopen_offsets(self, beacons: Iterable[str], position_sigma: float = 0.0) -> None:
+        """What the ranges taught the filter, forgotten: the range offsets of ``beacons`` back
+        to their priors, value and covariance (uncorrelated with the rest of the state), and
+        the position's variance widened by ``position_sigma`` (m) squared, so that the next
+        ranges set them again. Inflating the offsets' variance alone leaves what a bad range
+        taught them in the state. The block is the prior's, its rows otherwise cleared, and
+        a diagonal grows: P stays positive definite."""
+        names = list(beacons)
+        index = [self._offset_index[name] for name in names]
         x, P = self.kf.x, self.kf.P
-        for name, i in zip(beacons, index, strict=False):
+        for name, i in zip(names, index, strict=True):
             x[i, 0] = self.beacons[name].offset
         P[index, :] = 0.0
         P[:, index] = 0.0
-        P[np.ix_(index, index)] = cfg.sigma_beacon_offset**2
-        P[index, index] += cfg.sigma_offset_spread**2
+        self._offset_prior(P, index)
+        P[I_X, I_X] += position_sigma**2
+        P[I_Y, I_Y] += position_sigma**2
 
     def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
         """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is

@@ -41,8 +41,6 @@ from mavhelm.nav.ekf import (
     I_VH,
     I_VX,
     I_VY,
-    I_X,
-    I_Y,
     Beacon,
     BodyVelocity,
     Depth,
@@ -545,9 +543,7 @@ class Fusion:
         beacon off its survey, or a bad range accepted at the boot, that locked out good
         ones. Every beacon's offset but ``but``'s is re-opened to its prior and the
         position widened by ``error`` (m), so that the ranges still trusted set them again."""
-        ekf.reopen_offsets([name for name in ekf.beacons if name != but])
-        ekf.P[I_X, I_X] += error**2
-        ekf.P[I_Y, I_Y] += error**2
+        ekf.reopen_offsets([name for name in ekf.beacons if name != but], error)
 
     def _note_coupling(self, kept: list[Reading]) -> None:
         """A body velocity with a speed ties the heading to the motion for good."""
