@@ -15,7 +15,7 @@ from mavhelm.tasks.registry import TASK_TYPES, known_types
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMAS: list[Schema] = [GLOBAL_SCHEMA, *(s for s, _ in PROCESS_SCHEMAS.values()),
-                         *(cls.schema() for cls in set(TASK_TYPES.values()))]
+                         *(cls.schema() for cls in dict.fromkeys(TASK_TYPES.values()))]
 
 
 def test_docs_parameters_md_is_what_the_code_declares():
