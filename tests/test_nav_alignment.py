@@ -104,3 +104,17 @@ def test_fixes_that_move_while_the_odometry_stands_still_make_no_run() -> None:
     unmeasured = MotionAlignment()
     _straight(unmeasured, 0.0, 40.0, 40.0)
     assert unmeasured.estimate() is not None
+
+
+def test_an_offset_short_of_turned_round_must_be_seen_to_last_without_a_gap() -> None:
+    """40° off (not turned round): runs over 40 s straight make an estimate; runs as long
+    apart but with 25 s of silence between them (a turn, no fixes) do not, nor do the runs
+    after the silence alone (a kick of the compass lasting 10 s)."""
+    steady = MotionAlignment()
+    _straight(steady, 0.0, 40.0, 40.0)
+    found = steady.estimate()
+    assert found is not None and math.degrees(found.correction) == pytest.approx(-40.0, abs=0.5)
+    broken = MotionAlignment()
+    end = _straight(broken, 0.0, 40.0, 10.0)
+    _straight(broken, 0.0, 40.0, 10.0, t0=end + 25.0)
+    assert broken.estimate() is None

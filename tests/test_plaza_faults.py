@@ -2,9 +2,9 @@
 --fault all``: the floors held on recorded data (deterministic: the faults are seeded).
 
 Floors (issue 15): every variant ≤ 1.0 m RMS, and NAV never worse than the best of its own
-sources by more than 20 %; no navigation failure. Measured: clean 0.37 m, the heading
-wandering 0.38 m, drifting 180° within five minutes 0.45 m (2.47 m before the bias's drift
-rate was a state), range outliers 0.37 m. A beacon 5 m from its surveyed place misses the
+sources by more than 20 %; no navigation failure. Measured: clean 0.36 m, the heading
+wandering 0.36 m, drifting 180° within five minutes 0.44 m (2.47 m before the bias's drift
+rate was a state), range outliers 0.35 m. A beacon 5 m from its surveyed place misses the
 floor: 1.71 m on this draw, found only at 1478 s, another blamed first (across sixteen
 draws 0.63–2.88 m, mean 1.94; see :mod:`mavhelm.nav.beacon_watch`).
 """
