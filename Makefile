@@ -22,15 +22,24 @@ $(BIN)/.installed: pyproject.toml
 demo: $(BIN)/.installed
 	$(BIN)/mavhelm demo examples/demo.moos
 
+# The tests in two passes (tests/conftest.py, LIVE): the CPU-bound ones on two workers, then
+# the live ones (real SITL, companion, browser, pty) one after another, alone on the machine.
+# Both passes run; either failing fails the target.
 test: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q
+	status=0; \
+	$(BIN)/python -m pytest -q -m "not live" -n 2 --dist loadfile || status=1; \
+	$(BIN)/python -m pytest -q -m live || status=1; \
+	exit $$status
 
 test-fast: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q -m "not slow"
+	status=0; \
+	$(BIN)/python -m pytest -q -m "not slow and not live" -n 2 --dist loadfile || status=1; \
+	$(BIN)/python -m pytest -q -m "not slow and live" || status=1; \
+	exit $$status
 
 bench: $(BIN)/.installed
 	$(BIN)/python -m benchmarks.bench_demo

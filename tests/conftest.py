@@ -6,6 +6,13 @@ checked at file:line), ``message`` and ``nav_at`` (a NavState that heard NAV_* v
 
 Simulator rig (test_sitl_*): ``rig`` is a ``support.sitl_rig.Rig`` with the default settings, closed
 after the test. Tests that need other settings build ``Rig(...)`` from sitl_rig themselves.
+
+``make test`` runs the suite in two passes. The modules in ``LIVE`` run something against the
+wall clock (a real or built-in SITL, a companion, a browser, a pty, a timed poll) or start
+processes side by side; they carry the ``live`` mark and run one after another, alone on the
+machine, as they were written for. The others are CPU-bound and run first on two workers
+(``pytest -n 2 --dist loadfile``: each module whole, its fixtures made once). Hypothesis runs
+without its per-example deadline: speed is measured by the benchmarks, not asserted here.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
 import pytest
+from hypothesis import settings
 
 from mavhelm.core.bus import Message
 from mavhelm.core.mission import Block
@@ -22,6 +30,31 @@ from tests.support import task_rig
 
 if TYPE_CHECKING:
     from tests.support.sitl_rig import Rig
+
+settings.register_profile("mavhelm", deadline=None)
+settings.load_profile("mavhelm")
+
+LIVE: frozenset[str] = frozenset({
+    "test_ardupilot_actuation", "test_ardupilot_companion", "test_ardupilot_signing",
+    "test_ardupilot_sitl", "test_ardupilot_tune", "test_ardusub_figure1", "test_bridge_sensors",
+    "test_bridge_serial", "test_bridge_udp", "test_bus_clock", "test_check", "test_cli_realtime",
+    "test_cli_signals", "test_conformance", "test_e2e_serial_nav", "test_fleet_view",
+    "test_interop_mavproxy", "test_interop_mavsdk", "test_link", "test_nav_serial",
+    "test_nav_sim", "test_remote", "test_serial_instruments", "test_sitl_braking",
+    "test_sitl_core", "test_sitl_models", "test_sitl_modes", "test_sitl_protocol",
+    "test_sitl_runner", "test_sitl_sensors_pty", "test_sitl_truth_feed",
+    "test_sitl_vehicle_models", "test_tlog", "test_tune_safety", "test_web", "test_web_browser",
+    # several processes of their own side by side
+    "test_plaza_faults", "test_nav_replay_jobs", "test_nav_sim_faults",
+})
+"""Test modules that run against the wall clock, or start processes side by side."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``live`` mark on every test of the modules in ``LIVE``."""
+    for item in items:
+        if item.path.stem in LIVE:
+            item.add_marker(pytest.mark.live)
 
 
 @pytest.fixture
