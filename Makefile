@@ -25,21 +25,21 @@ demo: $(BIN)/.installed
 # The tests in two passes (tests/conftest.py, LIVE): the CPU-bound ones on two workers, then
 # the live ones (real SITL, companion, browser, pty) one after another, alone on the machine.
 # Both passes run; either failing fails the target.
+# $(call two_passes,MARKS): the tests also selected by MARKS ("" or "not slow and ").
+two_passes = status=0; \
+	$(BIN)/python -m pytest -q -m "$(1)not live" -n 2 --dist loadfile || status=1; \
+	$(BIN)/python -m pytest -q -m "$(1)live" || status=1; \
+	exit $$status
+
 test: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
 	$(BIN)/mypy
-	status=0; \
-	$(BIN)/python -m pytest -q -m "not live" -n 2 --dist loadfile || status=1; \
-	$(BIN)/python -m pytest -q -m live || status=1; \
-	exit $$status
+	$(call two_passes,)
 
 test-fast: $(BIN)/.installed
 	$(BIN)/ruff check mavhelm tests benchmarks
 	$(BIN)/mypy
-	status=0; \
-	$(BIN)/python -m pytest -q -m "not slow and not live" -n 2 --dist loadfile || status=1; \
-	$(BIN)/python -m pytest -q -m "not slow and live" || status=1; \
-	exit $$status
+	$(call two_passes,not slow and )
 
 bench: $(BIN)/.installed
 	$(BIN)/python -m benchmarks.bench_demo
