@@ -205,3 +205,36 @@ def test_a_bad_range_at_the_boot_does_not_lock_a_beacon_out_for_good() -> None:
     ekf = fusion.ekf
     assert ekf is not None
     assert math.hypot(float(ekf.x[0, 0]) - 30.0, float(ekf.x[1, 0]) - 40.0) < 1.0
+
+
+def test_the_track_takes_the_blame_from_the_offsets_and_keeps_it() -> None:
+    """The offsets blamed A; the track (mavhelm.nav.survey_check) singles out B: B is held
+    off, A trusted again, and the offsets no longer move the blame."""
+    ekf = _ekf({"A": 3.3, "B": 0.3, "C": 2.3, "D": 0.2})
+    watch = BeaconWatch()
+    watch.review(0.0, ekf)
+    assert set(watch.weights) == {"A"}
+    decisions = watch.review(1.0, ekf, singled_out="B")
+    assert [d.why.split(":")[0] for d in decisions] == [
+        "beacon A's ranges trusted as declared again",
+        "beacon B's ranges do not fit the track the other beacons' fit"]
+    assert set(watch.weights) == {"B"} and watch.fixed == "B" and watch.newly_off == ["B"]
+    assert watch.sigma("B", 1.0) >= SWING * BIAS_LIMIT
+    _learned(ekf, {"A": 9.0}, 0.1)  # the offsets would blame A, far more than SWITCH times
+    assert watch.review(2 * SETTLE, ekf) == [] and set(watch.weights) == {"B"}
+    assert watch.review(3 * SETTLE, ekf, singled_out="B") == []  # said once
+
+
+def test_where_the_track_can_judge_the_offsets_do_not_blame() -> None:
+    ekf = _ekf({"A": 3.3, "B": 0.3, "C": 2.3, "D": 0.2})
+    watch = BeaconWatch(blame_by_offsets=False)
+    assert watch.review(0.0, ekf) == [] and watch.weights == {}
+    decisions = watch.review(1.0, ekf, singled_out="A")
+    assert len(decisions) == 1 and set(watch.weights) == {"A"}
+
+
+def test_the_navigator_lets_the_track_judge_from_four_beacons() -> None:
+    from mavhelm.nav.fusion import Fusion, FusionConfig
+
+    assert not Fusion(FusionConfig(beacons=BEACONS)).beacon_watch.blame_by_offsets
+    assert Fusion(FusionConfig(beacons=BEACONS[:3])).beacon_watch.blame_by_offsets

@@ -5,8 +5,11 @@ Floors (issue 15): every variant ≤ 1.0 m RMS, and NAV never worse than the bes
 sources by more than 20 %; no navigation failure. Measured: clean 0.36 m, the heading
 wandering 0.36 m, drifting 180° within five minutes 0.44 m (2.47 m before the bias's drift
 rate was a state), range outliers 0.35 m. A beacon 5 m from its surveyed place misses the
-floor: 1.71 m on this draw, found only at 1478 s, another blamed first (across sixteen
-draws 0.63–2.88 m, mean 1.94; see :mod:`mavhelm.nav.beacon_watch`).
+floor on this draw: 1.06 m, the beacon found from the track at 200 s (sixteen draws
+0.53–1.06 m, mean 0.77; 1.71 m on this one while the offsets were the only evidence). The
+robot stands still for its first 80 s, where four ranges fit the displaced beacon at a
+position 4.5 m out and nothing is left to check them with: 0.94 m² of the run's 1.12 m²
+mean square (see :mod:`mavhelm.nav.survey_check`).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ MAT = REPO.parent / "shared" / "data" / "plaza" / "Plaza1.mat"
 EXAMPLE = REPO / "examples" / "plaza"
 
 FLOOR = 1.0
-MISSED: dict[str, float] = {"beacon_moved": 1.8}
+MISSED: dict[str, float] = {"beacon_moved": 1.1}
 """Variants that miss the floor today, with the figure they are held to instead."""
 PLAZA_FAULTS = ("heading_wander", "heading_drift", "heading_jumps", "heading_stuck", "ranges_gap",
                 "beacon_moved", "range_outliers")
@@ -98,10 +101,12 @@ def test_the_navigator_says_what_it_decided_about_the_heading(report) -> None:
 
 
 def test_a_beacon_off_its_survey_is_found_and_reported(report) -> None:
-    assert "beacon 0's ranges are biased" in report["beacon_moved"]  # the one the fault moves
+    text = report["beacon_moved"]
+    assert "beacon 0's ranges do not fit the track" in text  # the one the fault moves
+    assert set(re.findall(r"beacon (\w+)'s ranges [^\n]*off its survey", text)) == {"0"}
     for fault, text in report.items():
         if fault != "beacon_moved":
-            assert "ranges are biased" not in text, fault
+            assert "off its survey" not in text, fault
     assert re.search(r"^NAV against its best source \(\w+, RMS [\d.]+ m\): [\d.]+x",
                      report["none"], flags=re.M)
 

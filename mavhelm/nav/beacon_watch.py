@@ -30,13 +30,14 @@ to a beacon whose deviation reaches ``SWITCH`` times that of the one held off, b
 
 Measured (NAV RMS), with one beacon 5 m off its survey in a random direction: the
 simulator's box patrol (three beacons and a GPS) 0.57 m, the right beacon found at 70 s (GPS
-alone 0.55 m). Plaza1 (four beacons, odometry, no GPS), sixteen draws: mean 1.94 m, five
-under 1.2 m, the others 1.7–2.9 m (2.02 m with the offsets uncorrelated and the blame
-fixed; 0.37 m with the survey right). Where it fails, the filter settles early to a position
-and offsets that agree with every beacon, the displaced one included, within the ranges'
-noise, and the offsets then single out the wrong beacon: telling the displaced one needs a
-track the ranges did not shape (tried and not kept: the beacons' positions as filter
-states, σ 2 m: 1.2–1.8 m).
+alone 0.55 m). On Plaza1 (four beacons, odometry, no GPS) the offsets named the wrong beacon
+as often as the right one (sixteen draws: mean 1.94 m, 0.63-2.88 m): the filter settles
+early to a position and offsets that agree with every beacon, the displaced one included,
+within the ranges' noise (tried and not kept: the beacons' positions as filter states, σ 2 m:
+1.2-1.8 m). So where there are four beacons or more the track judges instead
+(:mod:`mavhelm.nav.survey_check`; ``blame_by_offsets`` false): the beacon it singles out
+(``review``'s ``singled_out``) takes the blame from any the offsets found and keeps it until
+the track singles out another (Plaza1: mean 0.77 m, the right beacon every time).
 
 A beacon can also be locked out by the filter rather than by its survey. One bad range
 accepted straight after the boot, while the offsets are uncertain by metres, can leave a state
@@ -105,7 +106,10 @@ class BeaconWatch:
     ``review(t, ekf)`` updates the weights once a slice and returns its decisions (a beacon
     found off its survey, or back on it)."""
 
-    def __init__(self) -> None:
+    def __init__(self, blame_by_offsets: bool = True) -> None:
+        self.blame_by_offsets = blame_by_offsets
+        """Whether the offsets may find a beacon off its survey: only where the track cannot
+        (:mod:`mavhelm.nav.survey_check` needs four beacons)."""
         self.weights: dict[str, float] = {}
         """Beacons found off their survey (down-weighted), with their deviation (m) at the
         last review."""
@@ -113,6 +117,9 @@ class BeaconWatch:
         """The beacons the last review found off their survey."""
         self._moved = -math.inf
         """When a beacon was last found off its survey."""
+        self.fixed: str | None = None
+        """The beacon the track singled out (:mod:`mavhelm.nav.survey_check`): held off its
+        survey whatever the offsets say, until the track singles out another."""
         self._refusals: dict[str, deque[float]] = {}
         """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
 
@@ -161,15 +168,21 @@ class BeaconWatch:
                         f"refused, agreeing with each other ({mean:+.1f} m against the "
                         "filter): the range offsets learned are doubted and re-opened")
 
-    def review(self, t: float, ekf: EKF) -> list[Decision]:
+    def review(self, t: float, ekf: EKF, singled_out: str | None = None) -> list[Decision]:
         """The weights brought up to date; ``newly_off`` names the beacon just found off its
-        survey, if any (the owner makes the filter forget what it taught it)."""
+        survey, if any (the owner makes the filter forget what it taught it).
+        ``singled_out`` is a beacon the track singled out: it takes the blame from any the
+        offsets had found."""
         decisions = []
         found = self.deviations(ekf)
         most = (len(found) - 1) // 2
         self.newly_off = []
+        if singled_out is not None and singled_out != self.fixed:
+            return self._single_out(t, singled_out, found)
         settling = t - self._moved < SETTLE
         for name in list(self.weights):
+            if name == self.fixed:
+                continue
             deviation = found[name][0] if name in found else 0.0
             if deviation < BIAS_LIMIT / 2 and not settling:
                 del self.weights[name]
@@ -177,6 +190,8 @@ class BeaconWatch:
                                           "other beacons' again: trusted as declared"))
             else:
                 self.weights[name] = deviation
+        if self.fixed is not None or not self.blame_by_offsets:
+            return decisions
         suspects = [(deviation, name) for name, (deviation, sigma) in found.items()
                     if name not in self.weights and deviation > BIAS_LIMIT
                     and deviation > SIGNIFICANCE * sigma]
@@ -196,4 +211,19 @@ class BeaconWatch:
         decisions.append(Decision(
             t, BEACON, f"beacon {name}'s ranges are biased {deviation:.1f} m against the "
             "other beacons': it is off its survey, its ranges all but left out"))
+        return decisions
+
+    def _single_out(self, t: float, name: str,
+                    found: dict[str, tuple[float, float]]) -> list[Decision]:
+        decisions = [Decision(t, BEACON, f"beacon {other}'s ranges trusted as declared again: "
+                              f"the track singles out beacon {name}'s")
+                     for other in self.weights if other != name]
+        deviation = found[name][0] if name in found else 0.0
+        self.weights = {name: max(deviation, BIAS_LIMIT)}
+        self.fixed = name
+        self.newly_off.append(name)
+        self._moved = t
+        decisions.append(Decision(
+            t, BEACON, f"beacon {name}'s ranges do not fit the track the other beacons' "
+            "fit: it is off its survey, its ranges all but left out"))
         return decisions

@@ -97,6 +97,7 @@ from mavhelm.nav.settings import (
     setting,
 )
 from mavhelm.nav.settings import LSQ as LSQ_SETTING
+from mavhelm.nav.survey_check import Fit, SurveyCheck
 
 BOOT_FIXES = 3
 """LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
@@ -220,7 +221,8 @@ class Fusion:
         """Whether the heading moves the position (a sideslip constraint, a body velocity with
         a speed): then the motion can tell a heading bias from a heading."""
         self.noise = NoiseMatch()
-        self.beacon_watch = BeaconWatch()
+        self.survey_check = SurveyCheck({b.name: b for b in config.beacons})
+        self.beacon_watch = BeaconWatch(self.survey_check.blind)
         self.alignment = MotionAlignment()
         """The orientation sensor's offset from the course made good, for a heading far out
         (:meth:`_align`)."""
@@ -419,6 +421,8 @@ class Fusion:
             cruising = self.heading_watch.under_way_for(t) >= UNDER_WAY_TIME
             self.ekf.along_track = ALONG_TRACK if cruising else 1.0
             self.ekf.advance(t)
+            x = self.ekf.x
+            self.survey_check.move(t, x.item(0), x.item(1), x.item(3), x.item(4))
         for fix in fixes:
             self._watch(fix)
         if self.ekf is None:
@@ -476,7 +480,8 @@ class Fusion:
             ekf.reinitialise(x, y, sigma)
             ekf.warnings.pop()  # the decision below says it
             self.noise = NoiseMatch()
-            self.beacon_watch = BeaconWatch()
+            self.beacon_watch = BeaconWatch(self.survey_check.blind)
+            self.survey_check.clear()
         turn = ekf.realign_heading(offset, found.velocity,
                                    max(found.spread, ALIGN_SIGMA), ALIGN_SIGMA_VELOCITY)
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
@@ -519,6 +524,8 @@ class Fusion:
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation))
                     self._decide(lockout)
+            if isinstance(r.obs, Range) and verdict.accepted:
+                self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma)
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
@@ -533,17 +540,27 @@ class Fusion:
             ekf = self._add_yaw_bias(t)
             ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
         if any(isinstance(r.obs, Range) for r in kept):
-            for decision in self.beacon_watch.review(t, ekf):
+            singled_out = self.survey_check.review(t)
+            for decision in self.beacon_watch.review(t, ekf, singled_out):
                 self._decide(decision)
             for name in self.beacon_watch.newly_off:
-                self._forget(ekf, self.beacon_watch.weights[name], but=name)
+                self._forget(ekf, self.beacon_watch.weights[name], but=name,
+                             fit=self.survey_check.fits.get(name) if name == singled_out else None)
 
-    def _forget(self, ekf: EKF, error: float, but: str | None = None) -> None:
+    def _forget(self, ekf: EKF, error: float, but: str | None = None,
+                fit: Fit | None = None) -> None:
         """What the ranges taught the filter, doubted (:mod:`mavhelm.nav.beacon_watch`): a
         beacon off its survey, or a bad range accepted at the boot, that locked out good
         ones. Every beacon's offset but ``but``'s is re-opened to its prior and the
-        position widened by ``error`` (m), so that the ranges still trusted set them again."""
+        position widened by ``error`` (m), so that the ranges still trusted set them again.
+        A ``fit`` of the track without ``but`` (:mod:`mavhelm.nav.survey_check`) says where
+        the other beacons put the vehicle: the position is widened by its distance from
+        there, then told it."""
+        if fit is not None:
+            error = max(error, math.hypot(fit.x - ekf.x.item(0), fit.y - ekf.x.item(1)))
         ekf.reopen_offsets([name for name in ekf.beacons if name != but], error)
+        if fit is not None:
+            ekf.update(Position(fit.t, fit.x, fit.y, fit.sigma))
 
     def _note_coupling(self, kept: list[Reading]) -> None:
         """A body velocity with a speed ties the heading to the motion for good."""

@@ -1,0 +1,103 @@
+"""The survey check (mavhelm.nav.survey_check): leave-one-out fits of a window of ranges
+along the track made good single out the beacon off its survey, and none when every beacon
+is where it was surveyed."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavhelm.nav.ekf import Beacon
+from mavhelm.nav.survey_check import MIN_BEACONS, SurveyCheck
+
+BEACONS = {name: Beacon(name, x, y) for name, x, y in
+           (("A", -40.0, 10.0), ("B", 10.0, -30.0), ("C", 25.0, 25.0), ("D", -15.0, 55.0))}
+SCALE = 1.067
+"""Ranges 6.7 % long, as on Plaza: the fits learn it."""
+
+
+def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: float,
+           seed: int = 1) -> list[tuple[float, str]]:
+    """The vehicle goes round an oval at 1 m/s; the track made good it is told (its velocity)
+    is turned 3° and 2 % long, the position it starts from 2 m off. Ranges at 2 Hz, to each
+    beacon in turn, from where each truly is (``moved``), σ 0.3 m. What ``review`` named,
+    when."""
+    rng = np.random.default_rng(seed)
+    turn, stretch = math.radians(3.0), 1.02
+    named = []
+    dt = 0.1
+    for k in range(int(seconds / dt)):
+        t = k * dt
+        a = t / 40.0
+        x, y = 15.0 * math.cos(a), 20.0 + 25.0 * math.sin(a)
+        vx, vy = -15.0 / 40.0 * math.sin(a), 25.0 / 40.0 * math.cos(a)
+        vx, vy = (stretch * (math.cos(turn) * vx - math.sin(turn) * vy),
+                  stretch * (math.sin(turn) * vx + math.cos(turn) * vy))
+        check.move(t, x + 2.0, y - 1.0, vx, vy)
+        if k % 5 == 0:
+            name = "ABCD"[(k // 5) % len(check.beacons)]
+            bx, by = moved.get(name, (BEACONS[name].x, BEACONS[name].y))
+            check.hear(t, name, SCALE * math.hypot(x - bx, y - by) + rng.normal(0.0, 0.3), 1.0)
+            found = check.review(t)
+            if found is not None:
+                named.append((t, found))
+    return named
+
+
+def test_every_beacon_where_surveyed_none_is_singled_out() -> None:
+    for seed in (1, 2, 3):
+        check = SurveyCheck(BEACONS)
+        assert _drive(check, {}, 900.0, seed) == []
+        assert set(check.fits) == {None, "A", "B", "C", "D"}  # it did judge
+        assert check.fits[None].chi2 < 0.2  # σ declared 1 m, 0.3 m heard
+
+
+@pytest.mark.parametrize("name", list(BEACONS))
+@pytest.mark.parametrize("bearing", [0.0, 2.0, 4.0])
+def test_a_beacon_5_m_off_its_survey_is_singled_out(name, bearing) -> None:
+    b = BEACONS[name]
+    check = SurveyCheck(BEACONS)
+    named = _drive(check, {name: (b.x + 5 * math.cos(bearing), b.y + 5 * math.sin(bearing))},
+                   400.0)
+    assert named and {n for _, n in named} == {name}
+    assert named[0][0] <= 300.0
+    # the fit without it puts the vehicle where it is, not where the start said
+    fit = check.fits[name]
+    a = fit.t / 40.0
+    assert math.hypot(fit.x - 15.0 * math.cos(a), fit.y - 20.0 - 25.0 * math.sin(a)) < 1.0
+    assert 0.0 < fit.sigma < 1.5
+
+
+def test_with_three_beacons_it_is_blind() -> None:
+    three = {name: BEACONS[name] for name in "ABC"}
+    check = SurveyCheck(three)
+    assert check.blind and len(three) < MIN_BEACONS
+    assert _drive(check, {"A": (-35.0, 10.0)}, 400.0) == [] and check.fits == {}
+
+
+def test_a_still_vehicle_tells_nothing() -> None:
+    """Still, every bearing stays put: the displaced beacon's error is a constant the shared
+    offset and scale absorb as well as any other beacon's."""
+    check = SurveyCheck(BEACONS)
+    rng = np.random.default_rng(4)
+    for k in range(4000):
+        t = 0.1 * k
+        check.move(t, 1.0, 21.0, 0.0, 0.0)
+        if k % 5 == 0:
+            name = "ABCD"[(k // 5) % 4]
+            b = BEACONS[name]
+            bx = b.x + (5.0 if name == "B" else 0.0)
+            check.hear(t, name, SCALE * math.hypot(bx, 20.0 - b.y) + rng.normal(0.0, 0.3), 1.0)
+            assert check.review(t) is None
+
+
+def test_a_cleared_window_starts_again() -> None:
+    check = SurveyCheck(BEACONS)
+    _drive(check, {}, 100.0)
+    assert check.heard
+    check.clear()
+    assert not check.heard
+    check.hear(200.0, "A", 40.0, 1.0)  # no track yet: not heard
+    assert not check.heard
