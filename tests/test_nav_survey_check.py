@@ -101,3 +101,18 @@ def test_a_cleared_window_starts_again() -> None:
     assert not check.heard
     check.hear(200.0, "A", 40.0, 1.0)  # no track yet: not heard
     assert not check.heard
+
+
+@pytest.mark.parametrize("where", [(0.0, 0.0), (1e9, 1e9)])
+def test_beacons_that_tell_nothing_name_nothing_and_raise_nothing(where) -> None:
+    """Four beacons surveyed at one point (a mission typo), or absurdly far: no fit to
+    trust, no beacon named, the navigator carries on."""
+    same = {name: Beacon(name, *where) for name in "ABCD"}
+    check = SurveyCheck(same)
+    for k in range(2000):
+        t = 0.1 * k
+        check.move(t, 0.1 * t, 0.0, 1.0, 0.0)
+        if k % 5 == 0:
+            check.hear(t, "ABCD"[(k // 5) % 4], 10.0 + 0.01 * k, 1.0)
+            assert check.review(t) is None
+    assert all(math.isfinite(f.chi2) for f in check.fits.values())

@@ -222,7 +222,11 @@ class Fusion:
         a speed): then the motion can tell a heading bias from a heading."""
         self.noise = NoiseMatch()
         self.survey_check = SurveyCheck({b.name: b for b in config.beacons})
-        self.beacon_watch = BeaconWatch(self.survey_check.blind)
+        self._anchored = False
+        """Whether a position fix (GPS, an XY reading) has been accepted: it anchors the
+        beacons' offsets, so they can take the blame for a beacon off its survey even where
+        the track cannot tell which one (:mod:`mavhelm.nav.beacon_watch`)."""
+        self.beacon_watch = self._new_beacon_watch()
         self.alignment = MotionAlignment()
         """The orientation sensor's offset from the course made good, for a heading far out
         (:meth:`_align`)."""
@@ -480,7 +484,7 @@ class Fusion:
             ekf.reinitialise(x, y, sigma)
             ekf.warnings.pop()  # the decision below says it
             self.noise = NoiseMatch()
-            self.beacon_watch = BeaconWatch(self.survey_check.blind)
+            self.beacon_watch = self._new_beacon_watch()
             self.survey_check.clear()
         turn = ekf.realign_heading(offset, found.velocity,
                                    max(found.spread, ALIGN_SIGMA), ALIGN_SIGMA_VELOCITY)
@@ -491,6 +495,11 @@ class Fusion:
                               f"made good over {found.runs} runs (spread "
                               f"{math.degrees(found.spread):.0f}°); heading turned by "
                               f"{math.degrees(turn):+.0f}°"))
+
+    def _new_beacon_watch(self) -> BeaconWatch:
+        """A beacon watch whose offsets take the blame where the track cannot, or where a
+        position fix anchors them."""
+        return BeaconWatch(blame_by_offsets=self.survey_check.blind or self._anchored)
 
     def _feed_lsq(self, kept: list[Reading]) -> list[Fix]:
         """The slice's pose-proportional readings into the LSQ; the fixes it makes."""
@@ -526,6 +535,8 @@ class Fusion:
                     self._decide(lockout)
             if isinstance(r.obs, Range) and verdict.accepted:
                 self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma)
+            if isinstance(r.obs, Position) and verdict.accepted and not self._anchored:
+                self._anchored = self.beacon_watch.blame_by_offsets = True
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
