@@ -60,10 +60,17 @@ def _serve_web(companion, args: argparse.Namespace):
 
 
 def _tick_until_stopped(companion, clock, exit_at_end: bool) -> None:
+    from mavhelm.companion.tick_watch import TickWatch
+
+    watch = TickWatch(companion.tick_period)
     next_tick = clock.now()
     while True:
-        companion.tick(clock.now())
+        started = clock.now()
+        companion.tick(started)
         companion.idle()
+        late = watch.finished(started, clock.now())
+        if late is not None:
+            companion.bus.notify("COMPANION_WARNING", late, "mavhelm")
         if exit_at_end and companion.mission_over():
             print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
             return

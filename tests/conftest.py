@@ -43,7 +43,8 @@ LIVE: frozenset[str] = frozenset({
     "test_nav_sim", "test_remote", "test_serial_instruments", "test_sitl_braking",
     "test_sitl_core", "test_sitl_models", "test_sitl_modes", "test_sitl_protocol",
     "test_sitl_runner", "test_sitl_sensors_pty", "test_sitl_truth_feed",
-    "test_sitl_vehicle_models", "test_tlog", "test_tune_safety", "test_web", "test_web_browser",
+    "test_sitl_vehicle_models", "test_tick_watch", "test_tlog", "test_tune_safety", "test_web",
+    "test_web_browser",
     # several processes of their own side by side
     "test_plaza_faults", "test_nav_replay_jobs", "test_nav_sim_faults",
 })
