@@ -38,7 +38,7 @@ def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: f
         check.move(t, x + 2.0, y - 1.0, vx, vy)
         if k % 5 == 0:
             name = "ABCD"[(k // 5) % len(check.beacons)]
-            bx, by = moved.get(name, (BEACONS[name].x, BEACONS[name].y))
+            bx, by = moved.get(name, (check.beacons[name].x, check.beacons[name].y))
             check.hear(t, name, SCALE * math.hypot(x - bx, y - by) + rng.normal(0.0, 0.3), 1.0)
             found = check.review(t)
             if found is not None:
@@ -68,6 +68,37 @@ def test_a_beacon_5_m_off_its_survey_is_singled_out(name, bearing) -> None:
     a = fit.t / 40.0
     assert math.hypot(fit.x - 15.0 * math.cos(a), fit.y - 20.0 - 25.0 * math.sin(a)) < 1.0
     assert 0.0 < fit.sigma < 1.5
+
+
+FAR = {name: Beacon(name, 1.5 * b.x, 1.5 * b.y) for name, b in BEACONS.items()}
+"""The beacons half as far again from the oval: their bearings turn more slowly."""
+
+
+def _found_far(name: str, bearing: float) -> list[tuple[float, str]]:
+    b = FAR[name]
+    return _drive(SurveyCheck(FAR), {name: (b.x + 5 * math.cos(bearing),
+                                            b.y + 5 * math.sin(bearing))}, 400.0)
+
+
+@pytest.mark.parametrize("name", list(FAR))
+@pytest.mark.parametrize("bearing", [0.0, 2.0, 4.0])
+def test_beacons_far_from_the_track_are_told_by_the_long_window(name, bearing) -> None:
+    named = _found_far(name, bearing)
+    assert named and {n for _, n in named} == {name}
+
+
+def test_the_short_window_alone_tells_few_far_beacons(monkeypatch) -> None:
+    """Why there are two windows: the 60 s one alone finds 2 of these 12 (the 120 s one all
+    of them, measured), and neither names a beacon when every one is where surveyed."""
+    from mavhelm.nav import survey_check
+
+    draws = [(name, bearing) for name in FAR for bearing in (0.0, 2.0, 4.0)]
+    both = sum(bool(_found_far(*draw)) for draw in draws)
+    monkeypatch.setattr(survey_check, "WINDOWS", (60.0,))
+    short = sum(bool(_found_far(*draw)) for draw in draws)
+    assert both == len(draws) and short <= len(draws) // 2
+    monkeypatch.undo()
+    assert _drive(SurveyCheck(FAR), {}, 900.0) == []
 
 
 def test_with_three_beacons_it_is_blind() -> None:

@@ -37,10 +37,10 @@ within the ranges' noise (tried and not kept: the beacons' positions as filter s
 1.2-1.8 m). So where there are four beacons or more the track judges instead
 (:mod:`mavhelm.nav.survey_check`; ``blame_by_offsets`` false): the beacon it singles out
 (``review``'s ``singled_out``) takes the blame from any the offsets found and keeps it until
-the track singles out another (Plaza1: mean 0.77 m, the right beacon every time). Once a
+the track singles out another (Plaza1: mean 0.78 m, the right beacon every time). Once a
 position fix (a GPS) has been accepted the offsets are anchored to it and judge again beside
 the track, which some geometries leave unable to tell two beacons apart (the simulator's box
-patrol among four beacons: 0.42-1.03 m, 0.70-1.39 m on the track alone).
+patrol among four beacons and a GPS: 0.41-1.03 m; before, on a 60 s track alone, 0.70-1.39 m).
 
 A beacon can also be locked out by the filter rather than by its survey. One bad range
 accepted straight after the boot, while the offsets are uncertain by metres, can leave a state
