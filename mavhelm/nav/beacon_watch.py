@@ -209,11 +209,8 @@ class BeaconWatch:
             decisions.append(Decision(t, BEACON, f"beacon {least}'s ranges trusted as declared "
                                       f"again: beacon {name}'s disagree more"))
         self.weights[name] = deviation
-        self.newly_off.append(name)
-        self._moved = t
-        decisions.append(Decision(
-            t, BEACON, f"beacon {name}'s ranges are biased {deviation:.1f} m against the "
-            "other beacons': it is off its survey, its ranges all but left out"))
+        decisions.append(self._hold_off(t, name, f"are biased {deviation:.1f} m against the "
+                                        "other beacons'"))
         return decisions
 
     def _single_out(self, t: float, name: str,
@@ -224,9 +221,12 @@ class BeaconWatch:
         deviation = found[name][0] if name in found else 0.0
         self.weights = {name: max(deviation, BIAS_LIMIT)}
         self.fixed = name
+        decisions.append(self._hold_off(t, name, "do not fit the track the other beacons' fit"))
+        return decisions
+
+    def _hold_off(self, t: float, name: str, why: str) -> Decision:
+        """Beacon ``name`` newly held off its survey (its weight already set), and why."""
         self.newly_off.append(name)
         self._moved = t
-        decisions.append(Decision(
-            t, BEACON, f"beacon {name}'s ranges do not fit the track the other beacons' "
-            "fit: it is off its survey, its ranges all but left out"))
-        return decisions
+        return Decision(t, BEACON, f"beacon {name}'s ranges {why}: it is off its survey, its "
+                        "ranges all but left out")
