@@ -60,24 +60,8 @@ def _serve_web(companion, args: argparse.Namespace):
 
 
 def _tick_until_stopped(companion, clock, exit_at_end: bool) -> None:
-    from mavhelm.companion.tick_watch import TickWatch
-
-    watch = TickWatch(companion.tick_period)
-    next_tick = clock.now()
-    while True:
-        started = clock.now()
-        companion.tick(started)
-        companion.idle()
-        late = watch.finished(started, clock.now())
-        if late is not None:
-            companion.bus.notify("COMPANION_WARNING", late, "mavhelm")
-        if exit_at_end and companion.mission_over():
-            print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
-            return
-        next_tick += companion.tick_period
-        if next_tick < clock.now() - companion.tick_period:
-            next_tick = clock.now()  # a late tick is not followed by a burst of catch-ups
-        clock.sleep_until(next_tick)
+    companion.run_until(clock, lambda: exit_at_end and companion.mission_over())
+    print("mavhelm: mission over; exiting (--exit-at-end)", flush=True)
 
 
 def _stop(signum, frame) -> None:

@@ -24,10 +24,11 @@ from mavhelm.companion.serial_instruments import (
     is_instrument_block,
 )
 from mavhelm.companion.status_wire import STATUS_PAYLOAD_TYPE
+from mavhelm.companion.tick_watch import TickWatch
 from mavhelm.companion.tlog_writer import TlogWriter
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
-from mavhelm.core.clock import Clock
+from mavhelm.core.clock import Clock, PacedClock
 from mavhelm.core.collector import IdleCollector
 from mavhelm.core.community import Community
 from mavhelm.core.errors import LocatedError, SettingError
@@ -211,6 +212,24 @@ class Companion:
         if self.tlog is not None:
             self.tlog.flush()
         self.collector.idle()
+
+    def run_until(self, clock: PacedClock, done: Callable[[], bool]) -> None:
+        """Tick in time on ``clock`` (the wall, or the autopilot's) until ``done()``: a late
+        tick is not followed by a burst of catch-ups, and ticks that overrun their period are
+        told to the operator as ``COMPANION_WARNING`` (:mod:`mavhelm.companion.tick_watch`)."""
+        watch = TickWatch(self.tick_period)
+        next_tick = clock.now()
+        while not done():
+            started = clock.now()
+            self.tick(started)
+            self.idle()
+            late = watch.finished(started, clock.now())
+            if late is not None:
+                self.bus.notify("COMPANION_WARNING", late, "mavhelm")
+            next_tick += self.tick_period
+            if next_tick < clock.now() - self.tick_period:
+                next_tick = clock.now()
+            clock.sleep_until(next_tick)
 
     def reload(self, now: float) -> None:
         """RESTART_HELM (spec 1): re-read the mission file and its TaskFile and rebuild the

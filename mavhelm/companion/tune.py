@@ -217,15 +217,7 @@ def write_gains(mission_path: Path, tuning: Tuning, out: Path | None) -> tuple[P
 def fly(session: TuneSession, clock: WallClock | AutopilotClock,
         echo: Callable[[str], None]) -> None:
     """Tick the companion until the manoeuvre is over or aborted."""
-    companion = session.companion
-    next_tick = clock.now()
-    while not session.finished:
-        companion.tick(clock.now())
-        companion.idle()
-        next_tick += companion.tick_period
-        if next_tick < clock.now() - companion.tick_period:
-            next_tick = clock.now()
-        clock.sleep_until(next_tick)
+    session.companion.run_until(clock, lambda: session.finished)
     if session.watch.aborted:
         echo(f"mavhelm tune: ABORTED: {session.watch.aborted}; nothing more is sent")
 

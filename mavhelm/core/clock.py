@@ -30,6 +30,12 @@ class Clock(Protocol):
     def now(self) -> float: ...
 
 
+class PacedClock(Clock, Protocol):
+    """A clock a loop can wait on: the wall's, or the autopilot's."""
+
+    def sleep_until(self, t: float) -> None: ...
+
+
 class WallClock:
     """Seconds since the Unix epoch, as MOOS time stamps are."""
 
