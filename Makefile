@@ -24,11 +24,12 @@ demo: $(BIN)/.installed
 
 # The tests in two passes (tests/conftest.py, LIVE): the CPU-bound ones on two workers, then
 # the live ones (real SITL, companion, browser, pty) one after another, alone on the machine.
-# Both passes run; either failing fails the target.
+# Both passes run; either failing fails the target. The live pass names its slowest tests
+# (most of CI's time is theirs: real SITL minutes).
 # $(call two_passes,MARKS): the tests also selected by MARKS ("" or "not slow and ").
 two_passes = status=0; \
 	$(BIN)/python -m pytest -q -m "$(1)not live" -n 2 --dist loadfile || status=1; \
-	$(BIN)/python -m pytest -q -m "$(1)live" || status=1; \
+	$(BIN)/python -m pytest -q -m "$(1)live" --durations=12 || status=1; \
 	exit $$status
 
 test: $(BIN)/.installed

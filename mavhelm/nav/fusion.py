@@ -41,6 +41,8 @@ from mavhelm.nav.ekf import (
     I_VH,
     I_VX,
     I_VY,
+    I_X,
+    I_Y,
     Beacon,
     BodyVelocity,
     Depth,
@@ -426,7 +428,7 @@ class Fusion:
             self.ekf.along_track = ALONG_TRACK if cruising else 1.0
             self.ekf.advance(t)
             x = self.ekf.x
-            self.survey_check.move(t, x.item(0), x.item(1), x.item(3), x.item(4))
+            self.survey_check.move(t, x.item(I_X), x.item(I_Y), x.item(I_VX), x.item(I_VY))
         for fix in fixes:
             self._watch(fix)
         if self.ekf is None:
@@ -544,7 +546,7 @@ class Fusion:
                 self.noise.observe(_channel(r.obs, r.sensor.name), nis)
         ekf = self.ekf  # a doubt may have given it a bias state
         assert ekf is not None
-        decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(3), ekf.x.item(4)))
+        decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(I_VX), ekf.x.item(I_VY)))
         if decision is not None:
             self._decide(decision)
         if ekf.i_bias is None and self._heading_coupled and self.heading_watch.course_defined(t):
@@ -568,7 +570,7 @@ class Fusion:
         the other beacons put the vehicle: the position is widened by its distance from
         there, then told it."""
         if fit is not None:
-            error = max(error, math.hypot(fit.x - ekf.x.item(0), fit.y - ekf.x.item(1)))
+            error = max(error, math.hypot(fit.x - ekf.x.item(I_X), fit.y - ekf.x.item(I_Y)))
         ekf.reopen_offsets([name for name in ekf.beacons if name != but], error)
         if fit is not None:
             ekf.update(Position(fit.t, fit.x, fit.y, fit.sigma))
