@@ -19,10 +19,12 @@ SCALE = 1.067
 
 
 def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: float,
-           seed: int = 1) -> list[tuple[float, str]]:
+           seed: int = 1, height: float = 0.0, told: float | None = None
+           ) -> list[tuple[float, str]]:
     """The vehicle goes round an oval at 1 m/s; the track made good it is told (its velocity)
     is turned 3° and 2 % long, the position it starts from 2 m off. Ranges at 2 Hz, to each
-    beacon in turn, from where each truly is (``moved``), σ 0.3 m. What ``review`` named,
+    beacon in turn, from where each truly is (``moved``), σ 0.3 m, heard ``height`` m up
+    (the check is ``told`` that height, the same unless given). What ``review`` named,
     when."""
     rng = np.random.default_rng(seed)
     turn, stretch = math.radians(3.0), 1.02
@@ -39,7 +41,9 @@ def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: f
         if k % 5 == 0:
             name = "ABCD"[(k // 5) % len(check.beacons)]
             bx, by = moved.get(name, (check.beacons[name].x, check.beacons[name].y))
-            check.hear(t, name, SCALE * math.hypot(x - bx, y - by) + rng.normal(0.0, 0.3), 1.0)
+            dz = height - check.beacons[name].z
+            z = SCALE * math.sqrt((x - bx) ** 2 + (y - by) ** 2 + dz**2) + rng.normal(0.0, 0.3)
+            check.hear(t, name, z, 1.0, height if told is None else told)
             found = check.review(t)
             if found is not None:
                 named.append((t, found))
@@ -99,6 +103,22 @@ def test_the_short_window_alone_tells_few_far_beacons(monkeypatch) -> None:
     assert both == len(draws) and short <= len(draws) // 2
     monkeypatch.undo()
     assert _drive(SurveyCheck(FAR), {}, 900.0) == []
+
+
+SEABED = {name: Beacon(name, b.x, b.y, -50.0) for name, b in BEACONS.items()}
+"""The beacons on a 50 m seabed, heard from a vehicle 30 m down."""
+
+
+def test_a_vehicle_at_depth_is_judged_from_its_depth() -> None:
+    check = SurveyCheck(SEABED)
+    assert _drive(check, {}, 900.0, height=-30.0) == []
+    assert check.fits[None].chi2 < 0.2
+    surface = SurveyCheck(SEABED)  # judged as if at the surface: 30 m of height wrong
+    assert _drive(surface, {}, 900.0, height=-30.0, told=0.0) != []  # beacons named wrongly
+    assert surface.fits[None].chi2 > 2 * check.fits[None].chi2
+    b = SEABED["C"]
+    named = _drive(SurveyCheck(SEABED), {"C": (b.x + 5.0, b.y)}, 400.0, height=-30.0)
+    assert named and {n for _, n in named} == {"C"}
 
 
 def test_with_three_beacons_it_is_blind() -> None:

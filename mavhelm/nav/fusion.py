@@ -536,7 +536,8 @@ class Fusion:
                     self._forget(ekf, abs(verdict.innovation))
                     self._decide(lockout)
             if isinstance(r.obs, Range) and verdict.accepted:
-                self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma)
+                height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + r.obs.lever[2]
+                self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma, height)
             if isinstance(r.obs, Position) and verdict.accepted and not self._anchored:
                 self._anchored = self.beacon_watch.blame_by_offsets = True
             self._score(r.sensor.name, verdict.d2, verdict.dof, verdict.accepted)

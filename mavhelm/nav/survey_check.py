@@ -116,7 +116,7 @@ class Heard:
     """The filter's position at ``t``: where a fit starts."""
     row: tuple[float, ...]
     """What a fit reads: the range less the beacon's offset prior, its σ, the beacon's x, y
-    and height squared, the track made good."""
+    and its height above the transducer squared, the track made good."""
 
 
 class SurveyCheck:
@@ -156,11 +156,14 @@ class SurveyCheck:
         self._t = t
         self._position = (x, y)
 
-    def hear(self, t: float, beacon: str, z: float, sigma: float) -> None:
+    def hear(self, t: float, beacon: str, z: float, sigma: float, height: float = 0.0) -> None:
+        """A range ``z`` (m, its σ) to ``beacon``, heard from a transducer ``height`` m up
+        (the filter's Z and the lever's: a vehicle at depth hears seabed beacons nearer)."""
         if beacon in self.beacons and math.isfinite(z) and self._t is not None:
             b = self.beacons[beacon]
             self.heard.append(Heard(t, beacon, z, sigma, self._track, self._position,
-                                    (z - b.offset, sigma, b.x, b.y, b.z**2, *self._track)))
+                                    (z - b.offset, sigma, b.x, b.y, (b.z - height)**2,
+                                     *self._track)))
 
     def review(self, t: float) -> str | None:
         while self.heard and self.heard[0].t < t - max(WINDOWS):
@@ -214,7 +217,8 @@ class SurveyCheck:
 def _fits(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
           now: tuple[float, float], t: float) -> list[Fit]:
     """The ranges (rows of ``columns``: range less the beacon's offset prior, its σ, the
-    beacon's x, y and height squared, the track made good since the window's first range)
+    beacon's x, y and height above the transducer squared, the track made good since the
+    window's first range)
     against the best shift, turn and speed scale of the track and range scale and offset
     shared by every beacon, from the filter's position ``start`` at the first range: one fit
     for each row of ``kept`` (which ranges it keeps), all solved together; where each puts
