@@ -30,7 +30,9 @@ evidence; the 60 s window alone 0.77, the 120 s alone 0.80). The clean recording
 in the 60 s window, 1.32 and 1.40 in the 120 s one). The five fits of a review are solved
 together: 2-3 ms a review, 0.6 s of a 32-minute replay, in an hour when this machine ran
 the EKF at 106 µs a cycle (45 µs when quiet); the five fits one after another took twice
-that, the window's rows built at each review a fifth more.
+that, the window's rows built at each review a fifth more. Each window's fits start from
+its last review's turn, scales and offset: a fifth less again, the Plaza1 figures above the
+same to the centimetre. Still a sixth to a fifth of a replay's time.
 
 Some geometries hardly tell: the simulator's box patrol among four beacons 60-200 m off,
 one moved 5 m, fits in a 60 s window as well without its neighbour as without it (second
@@ -83,6 +85,8 @@ TRUNCATE: Final = 3.0
 """A residual beyond this many of its σ counts in the χ² as if it were this many: one bad
 range the filter let in (a still vehicle's boot, 13 m short at σ 0.3 m) is not a misfit."""
 ITERATIONS: Final = 10
+NO_SHAPE: Final = np.zeros(4)
+"""Turn, speed scale, range scale and offset a window's first fit starts from."""
 CONVERGED: Final = 1e-2
 """Gauss-Newton stops once no parameter moves more than this (m, rad, scale) in a step
 (Plaza1: the ratios the same to four figures as at 1e-3, a sixth less work)."""
@@ -136,6 +140,9 @@ class SurveyCheck:
         self._turn = 0
         """The window reviewed next (its index in ``WINDOWS``)."""
         self._named = [deque[str | None](maxlen=VOTES) for _ in WINDOWS]
+        self._shapes: list[dict[str | None, np.ndarray]] = [{} for _ in WINDOWS]
+        """Each window's last fits' turn, scales and offset: where its next fits start (the
+        window moves on by ``REVIEW`` s, they little)."""
 
     @property
     def blind(self) -> bool:
@@ -145,8 +152,9 @@ class SurveyCheck:
     def clear(self) -> None:
         """Forget the window: the track made good is broken (the filter restarted)."""
         self.heard.clear()
-        for named in self._named:
+        for named, shapes in zip(self._named, self._shapes, strict=True):
             named.clear()
+            shapes.clear()
         self._t = None
 
     def move(self, t: float, x: float, y: float, x_vel: float, y_vel: float) -> None:
@@ -172,14 +180,14 @@ class SurveyCheck:
             return None
         self._next_review = t + REVIEW / len(WINDOWS)
         turn, self._turn = self._turn, (self._turn + 1) % len(WINDOWS)
-        named = self._single_out(t - WINDOWS[turn])
+        named = self._single_out(t - WINDOWS[turn], self._shapes[turn])
         votes = self._named[turn]
         votes.append(named)
         if named is not None and votes.count(named) >= CONFIRM:
             return named
         return None
 
-    def _single_out(self, since: float) -> str | None:
+    def _single_out(self, since: float, shapes: dict[str | None, np.ndarray]) -> str | None:
         heard = [h for h in self.heard if h.t >= since]
         counts: dict[str, int] = {}
         for h in heard:
@@ -199,8 +207,12 @@ class SurveyCheck:
         try:
             kept = np.array([np.ones(len(window), dtype=bool)]
                             + [heard_from != name for name in names])
-            fits.update(zip([None, *names],
-                            _fits(columns, kept, first.position, now, t), strict=True))
+            keys = [None, *names]
+            found, solved = _fits(columns, kept, first.position, now, t,
+                                  np.array([shapes.get(key, NO_SHAPE) for key in keys]))
+            fits.update(zip(keys, found, strict=True))
+            shapes.clear()
+            shapes.update(zip(keys, solved[:, 2:], strict=True))
         except np.linalg.LinAlgError:  # beacons on top of each other: nothing to tell
             fits.clear()
             return None
@@ -215,18 +227,21 @@ class SurveyCheck:
 
 
 def _fits(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
-          now: tuple[float, float], t: float) -> list[Fit]:
+          now: tuple[float, float], t: float, shape: np.ndarray
+          ) -> tuple[list[Fit], np.ndarray]:
     """The ranges (rows of ``columns``: range less the beacon's offset prior, its σ, the
     beacon's x, y and height above the transducer squared, the track made good since the
     window's first range)
     against the best shift, turn and speed scale of the track and range scale and offset
-    shared by every beacon, from the filter's position ``start`` at the first range: one fit
-    for each row of ``kept`` (which ranges it keeps), all solved together; where each puts
-    the vehicle at the track's point ``now``, time ``t``."""
+    shared by every beacon, from the filter's position ``start`` at the first range and the
+    turn, scales and offset of ``shape``: one fit for each row of ``kept`` (which ranges it
+    keeps, and its row of ``shape``), all solved together; where each puts the vehicle at
+    the track's point ``now``, time ``t``, and the parameters found."""
     z, sd, bx, by, bz2, ex, ey = columns.T
     kept = kept.astype(float)
     p = np.zeros((len(kept), 6))
     p[:, 0], p[:, 1] = start
+    p[:, 2:] = shape
     prior = np.array([0.0 if math.isinf(v) else 1.0 / v**2 for v in PRIOR_SIGMA])
 
     def residuals(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -249,8 +264,7 @@ def _fits(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
         weights = kept * np.where(a < HUBER, 1.0, HUBER / np.maximum(a, 1e-12))
         weighted = jacobian * weights[:, :, None]
         normal = weighted.transpose(0, 2, 1) @ jacobian + np.diag(prior)
-        gradient = (np.einsum("fri,fr->fi", weighted, residual)
-                    - prior * np.c_[np.zeros((len(p), 2)), p[:, 2:]])
+        gradient = np.einsum("fri,fr->fi", weighted, residual) - prior * p  # x, y: no prior
         step = np.linalg.solve(normal, gradient[:, :, None])[:, :, 0]
         p += step
         if float(np.max(np.abs(step))) < CONVERGED:
@@ -269,4 +283,5 @@ def _fits(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
                   * np.maximum(chi2, 1.0)[:, None, None])
     axis = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, -1], 0.0))
     return [Fit(float(chi2[k]), t, float(p[k, 0] + stretch[k] * rx[k]),
-                float(p[k, 1] + stretch[k] * ry[k]), float(axis[k])) for k in range(len(p))]
+                float(p[k, 1] + stretch[k] * ry[k]), float(axis[k]))
+            for k in range(len(p))], p
