@@ -43,8 +43,8 @@ judge (:class:`mavhelm.nav.fusion.Fusion`).
 
 Written by hand rather than with ``scipy.optimize.least_squares``: six parameters, a few
 hundred ranges, five fits every ``REVIEW`` / 2 s of every replay; a few Gauss-Newton steps
-from the filter's position, the five fits stacked, cost a fraction of the library's per-call
-overhead.
+from the filter's position and the window's last fits, the five fits stacked, cost a
+fraction of the library's per-call overhead.
 
 Pure logic: the owner calls ``move`` once a slice with the filter's position and velocity,
 ``hear`` with each range, and ``review``, which returns the beacon singled out or None.
@@ -68,10 +68,11 @@ REVIEW: Final = 10.0
 """s between two reviews of one window (the windows' reviews interleaved)."""
 RATIO_ALL: Final = 2.0
 """How many times better the fit without a beacon must be than the fit with every beacon
-(Plaza1 clean: at most 1.44 in its 168 reviews)."""
+(Plaza1 clean: at most 1.46 in the 60 s window's reviews, 1.32 in the 120 s one's)."""
 RATIO_NEXT: Final = 1.5
 """How many times better it must be than the fit without any other beacon (Plaza1 clean: at
-most 1.53, 1.48 in 99 % of its reviews)."""
+most 1.54 in the 60 s window's reviews, 1.40 in the 120 s one's; never in a review where
+the first ratio passed)."""
 CONFIRM: Final = 2
 """Reviews, of the last ``VOTES``, that must name the same beacon before it is singled out:
 one window's misfit can be a bad stretch of ranges; in the next the beacon's bearing may not
@@ -110,10 +111,10 @@ class Fit:
 
 @dataclass(frozen=True)
 class Heard:
+    """A range heard, kept while a window may fit it."""
+
     t: float
     beacon: str
-    z: float
-    sigma: float
     track: tuple[float, float]
     """The track made good (the filter's velocity integrated) at ``t``."""
     position: tuple[float, float]
@@ -169,7 +170,7 @@ class SurveyCheck:
         (the filter's Z and the lever's: a vehicle at depth hears seabed beacons nearer)."""
         if beacon in self.beacons and math.isfinite(z) and self._t is not None:
             b = self.beacons[beacon]
-            self.heard.append(Heard(t, beacon, z, sigma, self._track, self._position,
+            self.heard.append(Heard(t, beacon, self._track, self._position,
                                     (z - b.offset, sigma, b.x, b.y, (b.z - height)**2,
                                      *self._track)))
 
