@@ -136,7 +136,9 @@ def test_a_drifting_bias_is_carried_on_at_its_learned_rate() -> None:
     without, _ = run(False)
     assert abs(without.x[I_H, 0]) > math.radians(5.0)  # 30 s × 0.5°/s taken as a turn
     twin = EKF(0.0, 0.0, 0.0, config=EKFConfig()).with_yaw_bias()  # added, not declared:
-    assert twin.state_names()[6:] == ["YAW_BIAS"]  # a random walk alone (a compass's)
+    assert twin.state_names()[6:] == ["YAW_BIAS", "YAW_DRIFT"]  # its rate as EKF_YAW_DRIFT says
+    alone = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_drift=False)).with_yaw_bias()
+    assert alone.state_names()[6:] == ["YAW_BIAS"]
 
 
 def test_process_noise_is_filterpys_continuous_white_noise_scaled_by_dynamics() -> None:

@@ -25,14 +25,16 @@ def test_the_augmented_filter_carries_every_state_and_adds_a_zero_bias() -> None
     ekf.advance(1.0)
     ekf.update([Range(1.0, "1", 90.0, 0.3), Range(1.0, "2", 170.0, 0.3), Yaw(1.0, 0.4)])
     twin = ekf.with_yaw_bias()
-    assert ekf.i_bias is None and twin.i_bias is not None
-    assert twin.dim == ekf.dim + 1 and twin.t == ekf.t
-    kept = [i for i in range(twin.dim) if i != twin.i_bias]
+    assert ekf.i_bias is None and twin.i_bias is not None and twin.i_drift is not None
+    assert twin.dim == ekf.dim + 2 and twin.t == ekf.t  # the bias and, as EKF_YAW_DRIFT, its rate
+    kept = [i for i in range(twin.dim) if i not in (twin.i_bias, twin.i_drift)]
     np.testing.assert_array_equal(twin.x[kept, 0], ekf.x[:, 0])
     np.testing.assert_array_equal(twin.P[np.ix_(kept, kept)], ekf.P)
     assert twin.x[twin.i_bias, 0] == 0.0
     assert twin.P[twin.i_bias, twin.i_bias] == cfg.sigma_yaw_bias**2
-    assert not twin.P[twin.i_bias, kept].any()
+    assert twin.x[twin.i_drift, 0] == 0.0
+    assert twin.P[twin.i_drift, twin.i_drift] == cfg.sigma_yaw_drift**2
+    assert not twin.P[np.ix_([twin.i_bias, twin.i_drift], kept)].any()
     for name in ekf.beacons:  # the offsets behind the new state moved with their names
         assert twin.x[twin.offset_index(name), 0] == ekf.x[ekf.offset_index(name), 0]
     assert twin.with_yaw_bias() is twin

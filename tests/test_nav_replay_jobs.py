@@ -64,3 +64,29 @@ def test_jobs_below_one_is_refused(tmp_path: Path) -> None:
     done = _replay(tmp_path, "--jobs", "0")
     assert done.returncode == 2
     assert "--jobs must be at least 1" in done.stdout
+
+
+def test_faults_only_leaves_the_recorded_run_out_and_reports_the_rest_the_same(
+        tmp_path: Path) -> None:
+    (tmp_path / "m.moos").write_text(MISSION)
+    _write_log(tmp_path / "run.alog", seconds=30.0)
+    every = _replay(tmp_path, "--jobs", "1")
+    only = _replay(tmp_path, "--jobs", "2", "--faults-only")
+    assert every.returncode == 0 and only.returncode == 0, only.stdout + only.stderr
+    assert only.stdout.count("replay took") == 5  # the five faults, not the recording
+    every_lines = _report(every.stdout)
+    faults = every_lines[every_lines.index("== fault heading_wander ==") - 1:]
+    assert _report(only.stdout) == faults  # each fault's report as before, the first headed too
+
+def test_faults_only_needs_a_fault_and_a_bad_mission_is_said_as_itself(tmp_path: Path) -> None:
+    (tmp_path / "m.moos").write_text(MISSION)
+    _write_log(tmp_path / "run.alog", seconds=5.0)
+    alone = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay",
+                            str(tmp_path / "m.moos"), str(tmp_path / "run.alog"),
+                            "--faults-only"], capture_output=True, text=True, check=False)
+    assert alone.returncode == 2 and "--faults-only needs --fault" in alone.stdout
+    (tmp_path / "m.moos").write_text(MISSION.replace("}", "    EKF_NOT_A_SETTING = 1\n}"))
+    bad = _replay(tmp_path, "--faults-only")
+    assert bad.returncode != 0
+    assert "EKF_NOT_A_SETTING" in bad.stdout + bad.stderr
+    assert "run failed" not in bad.stdout

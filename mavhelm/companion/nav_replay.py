@@ -8,6 +8,8 @@ The .olog/.xlog are written beside the log unless ``--no-nav-log``. The fault ru
 (``--fault``) are independent replays of the same log, so they run in parallel processes
 (``--jobs``, all cores by default) after the log as recorded, which runs first in this process
 so that a bad mission or log is said once, as itself; the reports print in their order.
+``--faults-only`` leaves the recorded run out (a fault's draws compared among themselves):
+the first fault run then takes its place in this process.
 """
 
 from __future__ import annotations
@@ -40,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fault", action="append", default=[], choices=[*FAULTS, "all"],
                         help="also replay the log with this fault made on it (repeatable; "
                              "all: every fault that applies), each with its own report")
+    parser.add_argument("--faults-only", action="store_true",
+                        help="with --fault: replay only the fault runs, not the log as "
+                             "recorded first")
     parser.add_argument("--seed", type=int, default=1, help="seed of the faults (default 1)")
     parser.add_argument("--jobs", type=int, default=None,
                         help="fault runs replayed at once (default: the machine's cores)")
@@ -86,8 +91,11 @@ def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         print("mavhelm nav replay: --jobs must be at least 1", flush=True)
         return 2
+    if args.faults_only and not args.fault:
+        print("mavhelm nav replay: --faults-only needs --fault", flush=True)
+        return 2
     first, *faults = _faults(args)
-    lines, failed = _replay_report((args, first))
+    lines, failed = _replay_report((args, first), first=True)
     _print_run(first, lines)
     worst = int(failed)
     jobs = min(args.jobs or os.cpu_count() or 1, len(faults))
@@ -112,10 +120,11 @@ def _print_run(fault: str | None, lines: list[str]) -> None:
         print(line, flush=True)
 
 
-def _replay_report(job: tuple[argparse.Namespace, str | None]) -> tuple[list[str], bool]:
-    """One run's report lines and whether the navigator failed in it. A fault run (in a worker
-    process) reports an error as a line rather than raising: the log and mission were already
-    read once without one."""
+def _replay_report(job: tuple[argparse.Namespace, str | None],
+                   first: bool = False) -> tuple[list[str], bool]:
+    """One run's report lines and whether the navigator failed in it. A later fault run (in
+    a worker process) reports an error as a line rather than raising: the log and mission
+    were already read once without one; the ``first`` run raises it."""
     args, fault = job
     try:
         result, seconds = replay_files(args.mission, args.log, period=args.period,
@@ -123,7 +132,7 @@ def _replay_report(job: tuple[argparse.Namespace, str | None]) -> tuple[list[str
                                        write_nav_log=not args.no_nav_log, fault=fault,
                                        seed=args.seed)
     except Exception as exc:  # noqa: BLE001 - a worker's error must reach the report whole
-        if fault is None:
+        if first:
             raise
         return [f"mavhelm nav replay: the {fault} run failed: {exc}"], True
     speedup = result.span / seconds if seconds > 0 else float("inf")
@@ -133,8 +142,8 @@ def _replay_report(job: tuple[argparse.Namespace, str | None]) -> tuple[list[str
 
 
 def _faults(args: argparse.Namespace) -> list[str | None]:
-    """The runs asked for: the log as recorded, then each fault (``all``: those that apply
-    to the mission)."""
+    """The runs asked for: the log as recorded (unless ``--faults-only``), then each fault
+    (``all``: those that apply to the mission). The first runs in this process."""
     if not args.fault:
         return [None]
     names = list(dict.fromkeys(args.fault))
@@ -143,4 +152,6 @@ def _faults(args: argparse.Namespace) -> list[str | None]:
         block = mission.process("pNav")
         layout = layout_of(block) if block is not None else None
         names = [f for f in FAULTS if layout is not None and applies(f, layout)]
+    if args.faults_only and names:
+        return names
     return [None, *names]

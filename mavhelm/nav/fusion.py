@@ -67,6 +67,7 @@ from mavhelm.nav.filter_safety import (
     FilterSafety,
 )
 from mavhelm.nav.heading_watch import (
+    ADDED_WANDER_TIME,
     BIAS_WANDER_TIME,
     DOUBT_SIGMA,
     HEADING_DOUBT_SCALE,
@@ -552,7 +553,7 @@ class Fusion:
             self._decide(decision)
         if ekf.i_bias is None and self._heading_coupled and self.heading_watch.course_defined(t):
             ekf = self._add_yaw_bias(t)
-            ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+            ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + ADDED_WANDER_TIME)
         if any(isinstance(r.obs, Range) for r in kept):
             singled_out = self.survey_check.review(t)
             for decision in self.beacon_watch.review(t, ekf, singled_out):
@@ -661,9 +662,10 @@ class Fusion:
         ``STILL_TIME``), or on a doubt: the state is added (and kept by every later boot), so
         the position data take a wandering bias out of the heading instead of sharing it. A
         mission that declared no bias state said nothing of its sensor's bias: it starts with
-        the doubt's prior and may wander for ``BIAS_WANDER_TIME`` while the motion pins it
-        (added only once doubted, a compass sitting 4° off for a minute went unseen and
-        cost 0.6-1 m)."""
+        the doubt's prior and may wander for ``ADDED_WANDER_TIME`` while the motion pins it
+        (``BIAS_WANDER_TIME`` when a doubt added it; added only once doubted, a compass
+        sitting 4° off for a minute went unseen and cost 0.6-1 m). Its drift rate comes with
+        it, as ``EKF_YAW_DRIFT`` says (:meth:`EKF.with_yaw_bias`)."""
         assert self.ekf is not None
         self.ekf = self.ekf.with_yaw_bias()
         self.ekf_config = self.ekf.config
