@@ -551,7 +551,8 @@ class Fusion:
         decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(I_VX), ekf.x.item(I_VY)))
         if decision is not None:
             self._decide(decision)
-        if ekf.i_bias is None and self._heading_coupled and self.heading_watch.course_defined(t):
+        if (ekf.i_bias is None and self._heading_coupled and not self.heading_watch.rejecting
+                and self.heading_watch.course_defined(t)):
             ekf = self._add_yaw_bias(t)
             ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + ADDED_WANDER_TIME)
         if any(isinstance(r.obs, Range) for r in kept):

@@ -158,6 +158,11 @@ class HeadingWatch:
                             f"{t - since:.0f} s): not used while it does")
         return None
 
+    @property
+    def rejecting(self) -> bool:
+        """Whether a heading sensor's latest reading was rejected (it may be off just now)."""
+        return bool(self._rejected_since)
+
     def course_defined(self, t: float) -> bool:
         """Whether the vehicle has moved for ``STILL_TIME`` (as :meth:`motion` last heard):
         only then does a wrong heading show in the position data. Starting from rest the
