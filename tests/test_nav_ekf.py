@@ -141,6 +141,62 @@ def test_a_drifting_bias_is_carried_on_at_its_learned_rate() -> None:
     assert alone.state_names()[6:] == ["YAW_BIAS"]
 
 
+def test_an_integrated_headings_scale_error_is_learned_and_carried_through_the_turns() -> None:
+    """EKF_YAW_SCALE: an odometer's heading is its yaw rate integrated, both 6 % long, so
+    the heading's error grows with each turn and unwinds with the next turn back, which no
+    drift in time follows. A boat weaving (0.15 rad/s left for 30 s, then right) with
+    positions for 150 s learns the scale, and carries the heading through 60 s without them
+    on it (2.9° at worst); without the state the bias trails the turns (10.7°)."""
+    kappa, dt = 0.06, 0.1
+
+    def run(scaled: bool) -> tuple[EKF, float]:
+        ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(
+            estimate_yaw_bias=True, estimate_yaw_scale=scaled, velocity_follows_heading=True))
+        yaw = x = y = 0.0
+        worst = 0.0
+        for k in range(1, 2101):
+            t = k * dt
+            w = 0.15 if (t // 30.0) % 2 == 0 else -0.15
+            yaw += w * dt
+            x, y = x - math.sin(yaw) * dt, y + math.cos(yaw) * dt
+            ekf.advance(t)
+            observations: list = [Yaw(t, math.remainder((1 + kappa) * yaw, 2 * math.pi),
+                                      sigma=math.radians(0.5)),
+                                  BodyVelocity(t, 1.0, 0.0, (1 + kappa) * w, 0.05, 0.05,
+                                               math.radians(0.5), integrated=True)]
+            if t <= 150.0:
+                observations.append(Position(t, x, y, sigma=0.3))
+            ekf.update(observations)
+            if t > 150.0:
+                worst = max(worst, abs(math.remainder(ekf.x[I_H, 0] - yaw, 2 * math.pi)))
+        return ekf, worst
+    scaled, worst = run(True)
+    assert scaled.state_names()[6:9] == ["YAW_BIAS", "YAW_DRIFT", "YAW_SCALE"]
+    assert scaled.x[scaled.i_yaw_scale, 0] == pytest.approx(kappa, abs=0.01)
+    assert worst < math.radians(4.0)  # measured 2.9°
+    assert scaled.estimate().yaw_scale == scaled.x[scaled.i_yaw_scale, 0]
+    _, trailing = run(False)
+    assert trailing > math.radians(8.0)  # measured 10.7°
+
+
+def test_the_yaw_scale_moves_the_bias_with_the_turn_and_reads_the_yaw_rate_long() -> None:
+    ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_bias=True, estimate_yaw_drift=False,
+                                              estimate_yaw_scale=True))
+    ekf.x[I_VH, 0], ekf.x[ekf.i_yaw_scale, 0], ekf.x[ekf.i_bias, 0] = 0.2, 0.05, 0.1
+    ekf.predict(0.5)
+    assert ekf.x[ekf.i_bias, 0] == pytest.approx(0.1 + 0.5 * 0.05 * 0.2)  # b + dt κ ω
+    # the covariance moved by the linearised step: ∂b/∂κ = dt ω, ∂b/∂ω = dt κ
+    assert ekf._F[ekf.i_bias, ekf.i_yaw_scale] == pytest.approx(0.5 * 0.2)
+    assert ekf._F[ekf.i_bias, I_VH] == pytest.approx(0.5 * 0.05)
+    # a gyro of its own (not integrated into the heading) is read as the yaw rate
+    w = ekf.x[I_VH, 0]
+    for integrated, expected in ((True, 1.05 * w), (False, w)):
+        result = ekf.update([BodyVelocity(ekf.t, None, None, expected, integrated=integrated)])
+        assert result.verdicts[0].innovation == pytest.approx(0.0, abs=1e-12), integrated
+    off = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_scale=True))  # no bias: no scale
+    assert off.i_yaw_scale is None
+
+
 def test_process_noise_is_filterpys_continuous_white_noise_scaled_by_dynamics() -> None:
     for dt in (0.01, 0.2, 3.0):
         expected = Q_continuous_white_noise(dim=2, dt=dt, spectral_density=1.0)

@@ -211,3 +211,18 @@ def test_mission_without_pnav_is_an_error() -> None:
     with pytest.raises(MissionError) as info:
         Navigator.from_mission(Bus(SimClock()), parse_mission("A = 1\n", "z.moos"))
     assert "pNav" in str(info.value) and info.value.file == "z.moos"
+
+
+@pytest.mark.parametrize("lines, scaled", [
+    ("SENSOR_ORIENTATION = ODOM -> heading ~ 2\n   SENSOR_BODY_VEL = ODOM -> odometry ~ 0.05, "
+     "0.1, 1", True),  # the odometer's own heading: its yaw rate integrated
+    ("SENSOR_ORIENTATION = ODOM -> heading ~ 2\n   SENSOR_BODY_VEL = ODOM -> odometry ~ 0.05, "
+     "0.1, 1\n   EKF_YAW_SCALE = false", False),
+    ("SENSOR_ORIENTATION = HDG -> compass ~ 2\n   SENSOR_BODY_VEL = INS -> gyro ~ 0.5", False),
+])
+def test_the_yaw_scale_state_where_the_heading_is_a_body_velocity_sensors_own(
+        lines: str, scaled: bool) -> None:
+    text = ("ProcessConfig = pNav\n{\n   X = EKF @ 2\n   SENSOR_XY = GPS -> gps ~ 2\n   "
+            + lines + "\n   EKF_YAW_BIAS = true\n}\n")
+    fusion = Harness(text).nav.fusion
+    assert fusion is not None and fusion.config.ekf.estimate_yaw_scale is scaled

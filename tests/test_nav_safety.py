@@ -147,11 +147,11 @@ def _log(seconds: int = 1200) -> list[Message]:
 
 def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
-    assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_jumps", "heading_stuck",
-                           "ranges_gap",
-                           "beacon_moved", "range_outliers", "gps_glitches"}
+    assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_jumps",
+                           "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
+                           "gps_glitches"}
     for name in FAULTS:
-        assert applies(name, LAYOUT)
+        assert applies(name, LAYOUT) is (name != "heading_scale")  # no odometer's heading
         assert with_fault(name, log, LAYOUT, seed=7) == with_fault(name, log, LAYOUT, seed=7)
     wander = [m.double for m in with_fault("heading_wander", log, LAYOUT)
               if m.name == "C_HEADING"]
@@ -171,6 +171,32 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     with pytest.raises(ValueError, match="unknown fault"):
         with_fault("nothing", log, LAYOUT)
     assert not applies("ranges_gap", Layout(("C",), (), ("G",), ()))
+
+
+def test_a_scaled_heading_errs_by_its_scale_times_each_turn_and_its_yaw_rate_with_it() -> None:
+    """``heading_scale``: an odometer whose yaw rate is a few % off, and its heading that
+    rate integrated. Turning 90° and back, the heading's error grows by the scale times the
+    turn and unwinds with the turn back (no drift in time); a yaw rate from another
+    instrument is left alone; without one source giving both, the fault does not apply."""
+    log = []
+    for k in range(200):
+        heading = (10.0 + (k if k < 90 else max(180 - k, 0))) % 360.0  # 1°/s, out and back
+        rate = -math.radians(1.0 if k < 90 else -1.0 if k < 180 else 0.0)
+        log += [Message("C_HEADING", heading, float(k), "log"),
+                Message("C_YAW_VEL", rate, float(k), "log"),
+                Message("D_YAW_VEL", rate, float(k), "log")]
+    layout = Layout(("C",), (), (), (), ("C", "D"))
+    scaled = with_fault("heading_scale", log, layout, seed=3)
+    heading = [m.double for m in scaled if m.name == "C_HEADING"]
+    rates = [m.double for m in scaled if m.name == "C_YAW_VEL"]
+    k = rates[10] / log[31].double - 1.0  # the scale the seed drew
+    assert 0.03 <= abs(k) <= 0.08
+    assert math.remainder(heading[89] - 99.0, 360.0) == pytest.approx(89 * k)  # 89° turned
+    assert math.remainder(heading[199] - 10.0, 360.0) == pytest.approx(0.0, abs=1e-9)
+    assert [m.double for m in scaled if m.name == "D_YAW_VEL"] == [
+        m.double for m in log if m.name == "D_YAW_VEL"]
+    assert scaled == with_fault("heading_scale", log, layout, seed=3)
+    assert not applies("heading_scale", Layout(("C",), (), (), (), ("D",)))
 
 
 def test_a_drifting_heading_swings_180_within_five_minutes_and_its_yaw_rate_with_it() -> None:

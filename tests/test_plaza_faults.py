@@ -4,7 +4,8 @@
 Floors (issue 15): every variant ≤ 1.0 m RMS, and NAV never worse than the best of its own
 sources by more than 20 %; no navigation failure. Measured: clean 0.36 m, the heading
 wandering 0.36 m, drifting 180° within five minutes 0.44 m (2.47 m before the bias's drift
-rate was a state), range outliers 0.35 m. A beacon 5 m from its surveyed place misses the
+rate was a state), the odometer's yaw rate 7.8 % short 0.37 m (2.04 m before its scale was a
+state), range outliers 0.35 m. A beacon 5 m from its surveyed place misses the
 floor on this draw: 1.06 m, the beacon found from the track at 200 s (sixteen draws
 0.53–1.06 m, mean 0.77; 1.71 m on this one while the offsets were the only evidence). The
 robot stands still for its first 80 s, where four ranges fit the displaced beacon at a
@@ -30,8 +31,8 @@ EXAMPLE = REPO / "examples" / "plaza"
 FLOOR = 1.0
 MISSED: dict[str, float] = {"beacon_moved": 1.1}
 """Variants that miss the floor today, with the figure they are held to instead."""
-PLAZA_FAULTS = ("heading_wander", "heading_drift", "heading_jumps", "heading_stuck", "ranges_gap",
-                "beacon_moved", "range_outliers")
+PLAZA_FAULTS = ("heading_wander", "heading_drift", "heading_scale", "heading_jumps",
+                "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers")
 
 
 def _converted(folder: Path) -> tuple[Path, Path]:

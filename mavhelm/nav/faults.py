@@ -11,6 +11,9 @@ those real vehicles meet:
 ``heading_drift``   an odometry-integrated heading: its error drifts 180° within five minutes
                     (a random walk of its rate) and the same instrument's yaw rate carries that
                     rate
+``heading_scale``   an odometry-integrated heading whose yaw rate is 3–8 % off, as the same
+                    instrument's yaw rate: its error grows with each turn, not with time
+                    (an odometer's wheel base); only where one source gives both
 ``heading_jumps``   the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
                     compass near a motor)
 ``heading_stuck``   the heading holds one value for five minutes (a frozen AHRS)
@@ -124,6 +127,26 @@ def heading_drift(messages: list[Message], layout: Layout,
     return out
 
 
+def heading_scale(messages: list[Message], layout: Layout,
+                  rng: np.random.Generator) -> list[Message]:
+    k = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.03, 0.08))
+    both = tuple(set(layout.orientation) & set(layout.body_velocity))
+    last: dict[str, float] = {}
+    turned: dict[str, float] = {}
+    out = []
+    for m in messages:
+        if _is(m, both, "HEADING", "YAW"):
+            heading = m.double if m.name.endswith("_HEADING") else -math.degrees(m.double)
+            if m.name in last:  # the turn made good since the first reading, unwrapped
+                turned[m.name] += math.remainder(heading - last[m.name], 360.0)
+            last[m.name] = heading
+            m = _turn(m, k * turned.setdefault(m.name, 0.0))
+        elif _is(m, both, "YAW_VEL"):
+            m = m._replace(value=(1.0 + k) * m.double)
+        out.append(m)
+    return out
+
+
 def heading_jumps(messages: list[Message], layout: Layout,
                   rng: np.random.Generator) -> list[Message]:
     t0, t1 = _span(messages)
@@ -228,6 +251,7 @@ def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 FAULTS: dict[str, FaultMaker] = {
     "heading_wander": heading_wander,
     "heading_drift": heading_drift,
+    "heading_scale": heading_scale,
     "heading_jumps": heading_jumps,
     "heading_stuck": heading_stuck,
     "ranges_gap": ranges_gap,
@@ -240,6 +264,8 @@ FAULTS: dict[str, FaultMaker] = {
 
 def applies(name: str, layout: Layout) -> bool:
     """Whether the fault has anything to act on in a mission of this layout."""
+    if name == "heading_scale":
+        return bool(set(layout.orientation) & set(layout.body_velocity))
     if name.startswith("heading"):
         return bool(layout.orientation)
     if name in ("ranges_gap", "range_outliers"):

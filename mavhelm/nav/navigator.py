@@ -81,6 +81,7 @@ from mavhelm.nav.settings import (
     EKF_YAW_BIAS,
     EKF_YAW_DRIFT,
     EKF_YAW_DYNAMICS,
+    EKF_YAW_SCALE,
     EKF_Z,
     EKF_Z_DYNAMICS,
     LSQ,
@@ -135,8 +136,8 @@ NAV_SCHEMA = Schema(
      BEACON, FIXEDDEPTH, FIXEDHEADING, FIXEDTIDE, FIXEDSIDESLIP,
      *EKF_START, EKF_SIGMA_XY, EKF_SIGMA_HEADING, EKF_SIGMA_Z, EKF_XY_DYNAMICS,
      EKF_YAW_DYNAMICS, EKF_Z_DYNAMICS, EKF_MOBILE, EKF_LAG, EKF_TIME_SIGMA, EKF_YAW_BIAS,
-     EKF_YAW_DRIFT, EKF_SPEED_SCALE, EKF_TIDE, EKF_RANGE_SCALE, EKF_BEACON_OFFSETS, EKF_GATE,
-     MAX_EKF_POSITION_UNCERTAINTY, EKF_MAX_SPEED,
+     EKF_YAW_DRIFT, EKF_YAW_SCALE, EKF_SPEED_SCALE, EKF_TIDE, EKF_RANGE_SCALE,
+     EKF_BEACON_OFFSETS, EKF_GATE, MAX_EKF_POSITION_UNCERTAINTY, EKF_MAX_SPEED,
      LSQ, LSQ_WINDOW, LSQ_TIMEOUT, LSQ_OFFSET, LSQ_REJECTION, MAX_LSQ_EKF_DEVIATION,
      MAX_MEDIAN_LSQ_SHIFT, LBL_SOUND_SPEED,
      *NAV_LOG_SETTINGS, SENSOR_SILENCE, ALWAYS_READ, *ORIGINAL_ONLY),
@@ -189,8 +190,11 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     _check_names(block)
     _check_ranging(settings, sensors, block)
     has_depth = _check_filters(settings, sensors, block)
+    headings = {s.source for s in sensors if s.type == "ORIENTATION"}
+    integrated = any(s.type == "BODY_VEL" and s.source in headings for s in sensors)
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
-                      velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None)
+                      velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None,
+                      estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings))
     return sensors, Fusion(config)
 

@@ -194,6 +194,8 @@ def _learned(final: Estimate) -> list[str]:
     learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
     if final.yaw_drift:
         learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
+    if final.yaw_scale:
+        learned.append(f"yaw rate scale {final.yaw_scale:+.4f}")
     if final.speed_scale:
         learned.append(f"speed scale {final.speed_scale:+.4f}")
     learned.append(f"range scale {final.range_scale:+.4f}")

@@ -326,6 +326,8 @@ class SensorReader:
         self.bad = 0
         self._routes: dict[str, list[tuple[SensorSpec, str, str]]] = {}
         self._by_id = {id(s): s for s in self.sensors}
+        self._headings = {s.source for s in self.sensors if s.type == "ORIENTATION"}
+        """Sources with a heading: a body velocity from one has its yaw rate integrated."""
         for sensor in self.sensors:
             for variable, part, channel in self._variables(sensor):
                 self._routes.setdefault(variable, []).append((sensor, part, channel))
@@ -428,5 +430,5 @@ class SensorReader:
                                   forward * math.sin(a) + starboard * math.cos(a))
         return Reading(sensor, BodyVelocity(
             t, forward, starboard, values.get("yaw_rate"), sensor.sigma(0), sensor.sigma(1),
-            math.radians(sensor.sigma(2)), sensor.lever))
+            math.radians(sensor.sigma(2)), sensor.lever, sensor.source in self._headings))
 

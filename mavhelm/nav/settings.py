@@ -72,6 +72,12 @@ EKF_YAW_DRIFT = Param("EKF_YAW_DRIFT", Boolean(), True, "", "with the heading-bi
                       "gyro-integrated heading drifts at a rate that changes slowly, and "
                       "through a stretch without position data only that rate carries the "
                       "heading (false: the bias is a random walk alone)", attr="ekf_yaw_drift")
+EKF_YAW_SCALE = Param("EKF_YAW_SCALE", Boolean(), True, "", "with the heading-bias state, "
+                      "when the orientation sensor's heading is a body-velocity sensor's yaw "
+                      "rate integrated (the same source: wheel odometry, a gyro), learn that "
+                      "yaw rate's scale error: the heading's error then grows with each turn "
+                      "(an odometer's wheel base), which a drift in time does not follow",
+                      attr="ekf_yaw_scale")
 EKF_SPEED_SCALE = Param("EKF_SPEED_SCALE", Boolean(), False, "", "learn a scale error of the "
                         "body-velocity sensors' speeds, shared by them (a wheel odometer's "
                         "wheel size, a DVL's sound speed); needs a position sensor",
