@@ -78,10 +78,11 @@ ADDED_WANDER_TIME: Final = 300.0
 """s: how long a bias state added under way (the mission declared none) is let wander so: a
 sensor nobody described may be off by anything, but half an hour of that walk drowns the
 drift rate the state carries (``EKF_YAW_DRIFT``). Measured on Plaza1 with the heading
-drifting 180° within five minutes, the mission declaring no bias and no start: 10.1 m RMS
-with the bias a random walk alone, 0.91 m with its drift rate and 1800 s of wander (the rate
-learned at 30°/min of the true 36, 7.8 m out across a stretch of few ranges), 0.42 m with
-300 s (0.42 with none; the wandering heading 0.35, 0.34); the simulator's compass patrol with
+drifting 180° within five minutes, the mission declaring no bias (a start given): 10.09 m
+RMS with the bias a random walk alone, 0.91 m with its drift rate and 1800 s of wander (the
+rate learned at 30°/min of the true 36, 7.8 m out across a stretch of few ranges), 0.42 m
+with 300 s (0.42 with none; the wandering heading 0.35, 0.34); with no start either,
+10.18 → 0.43 m; the simulator's compass patrol with
 its fault library the same to 0.01 m at 0, 300 and 1800 s, its NEES higher at 0."""
 HEADING_DOUBT_SCALE: Final = 3.0
 """Without a bias state (and none observable to add), each doubt scales the heading

@@ -58,6 +58,7 @@ from mavhelm.nav.sensors import (
     SensorLine,
     SensorReader,
     SensorSpec,
+    integrated_sources,
     noise_range,
 )
 from mavhelm.nav.settings import (
@@ -190,8 +191,7 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     _check_names(block)
     _check_ranging(settings, sensors, block)
     has_depth = _check_filters(settings, sensors, block)
-    headings = {s.source for s in sensors if s.type == "ORIENTATION"}
-    integrated = any(s.type == "BODY_VEL" and s.source in headings for s in sensors)
+    integrated = bool(integrated_sources(sensors))
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
                       velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None,
                       estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])

@@ -308,6 +308,14 @@ class Reading:
     (:meth:`Fusion._brought_forward`)."""
 
 
+def integrated_sources(sensors: Iterable[SensorSpec]) -> set[str]:
+    """Sources that give a heading and a body velocity both: that heading is the body
+    velocity's yaw rate integrated (an odometer, a gyro), and shares its scale error."""
+    sensors = list(sensors)
+    headings = {s.source for s in sensors if s.type == "ORIENTATION"}
+    return {s.source for s in sensors if s.type == "BODY_VEL" and s.source in headings}
+
+
 class SensorReader:
     """Turns a tick's mail into :class:`Reading`\\ s for the declared sensors.
 
@@ -326,8 +334,7 @@ class SensorReader:
         self.bad = 0
         self._routes: dict[str, list[tuple[SensorSpec, str, str]]] = {}
         self._by_id = {id(s): s for s in self.sensors}
-        self._headings = {s.source for s in self.sensors if s.type == "ORIENTATION"}
-        """Sources with a heading: a body velocity from one has its yaw rate integrated."""
+        self._integrated = integrated_sources(self.sensors)
         for sensor in self.sensors:
             for variable, part, channel in self._variables(sensor):
                 self._routes.setdefault(variable, []).append((sensor, part, channel))
@@ -430,5 +437,5 @@ class SensorReader:
                                   forward * math.sin(a) + starboard * math.cos(a))
         return Reading(sensor, BodyVelocity(
             t, forward, starboard, values.get("yaw_rate"), sensor.sigma(0), sensor.sigma(1),
-            math.radians(sensor.sigma(2)), sensor.lever, sensor.source in self._headings))
+            math.radians(sensor.sigma(2)), sensor.lever, sensor.source in self._integrated))
 
