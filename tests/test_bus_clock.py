@@ -112,6 +112,62 @@ def test_autopilot_clock_follows_a_sped_up_autopilot():
     assert clock.now() >= before
 
 
+def _read_a_stalling_link(clock, wall: FakeWall, stall_at: float, stall_s: float,
+                          warp: float = 10.0, until: float = 8.0) -> tuple[float, float]:
+    """A companion reading a ``warp``x autopilot every 0.1 s of wall time (ten stamps a read,
+    the newest just sent), but once not for ``stall_s``: that read brings the whole backlog.
+    Returns how far the clock ran ahead of the autopilot at worst (autopilot seconds),
+    watched every 10 ms of wall time, and the newest stamp sent."""
+    start, sent, worst = wall.t, -0.1, 0.0
+    clock.observe(100.0 + sent)
+    offset = clock.now() - (100.0 + sent)
+    next_read = start
+    while wall.t - start < until:
+        if wall.t >= next_read - 1e-9:
+            newest = warp * (wall.t - start)
+            while sent < newest:
+                sent = min(newest, sent + 0.1 * warp / 10)
+                clock.observe(100.0 + sent)
+            stalled = stall_at <= wall.t - start < stall_at + 0.1
+            next_read = wall.t + (stall_s if stalled else 0.1)
+        truth = offset + 100.0 + warp * (wall.t - start)
+        worst = max(worst, clock.now() - truth)
+        wall.t += 0.01
+    return worst, 100.0 + sent
+
+
+@pytest.mark.parametrize("stall_s", [0.5, 3.0, 20.0])
+def test_a_stall_does_not_send_the_autopilot_clock_ahead(stall_s):
+    """Seen on the real SITL at x10 in CI: after a stall the backlog's old stamps, read
+    0.2 s before fresh ones, made the rate 20-100x too high; between two reads the clock ran
+    197 autopilot seconds ahead and a 120 s task time-out fired in its first tick. Each read
+    now counts by its newest stamp, and the rate is that envelope's slope."""
+    from mavhelm.core.clock import AutopilotClock
+
+    wall = FakeWall()
+    clock = AutopilotClock(wall, epoch=1000.0)
+    worst, _ = _read_a_stalling_link(clock, wall, stall_at=1.0, stall_s=stall_s,
+                                  until=stall_s + 4.0)
+    assert worst < 1.5, f"ran {worst:.1f} autopilot seconds ahead"
+    assert clock.warp == pytest.approx(10.0, rel=0.05)
+
+
+def test_the_rate_follows_an_autopilot_that_slows_down():
+    """The envelope's slope is a least: a real change of rate (a loaded SITL dropping from
+    x10 to x2) is followed within the window, not held at the old rate."""
+    from mavhelm.core.clock import AutopilotClock
+
+    wall = FakeWall()
+    clock = AutopilotClock(wall, epoch=1000.0)
+    _, boot = _read_a_stalling_link(clock, wall, stall_at=99.0, stall_s=0.0, until=3.0)
+    assert clock.warp == pytest.approx(10.0, rel=0.02)
+    for _ in range(30):
+        wall.t += 0.1
+        boot += 0.2
+        clock.observe(boot)
+    assert clock.warp == pytest.approx(2.0, rel=0.02)
+
+
 def test_autopilot_clock_sleeps_in_autopilot_time():
     from mavhelm.core.clock import AutopilotClock
 
@@ -150,6 +206,21 @@ def test_a_clock_ahead_of_the_autopilot_does_not_stop_the_ticks():
     t0 = time.monotonic()
     clock.sleep_until(clock.now() + 0.1)
     assert time.monotonic() - t0 < 0.25  # 0.1 s at 10x is 10 ms; frozen would be 0.5 s
+
+
+def test_a_rate_measured_far_too_low_does_not_keep_the_companion_from_its_link():
+    """A 0.01x rate would make one 0.1 s tick a 10 s wait on the wall clock, and the link
+    unread all that while: one wait is half a wall second at most."""
+    import time
+
+    from mavhelm.core.clock import AutopilotClock
+
+    clock = AutopilotClock()
+    clock.observe(0.0)
+    clock.warp, clock.rate_known = 0.01, True
+    t0 = time.monotonic()
+    clock.sleep_until(clock.now() + 0.1)
+    assert time.monotonic() - t0 < AutopilotClock.MAX_WAIT_S + 0.25
 
 
 def test_backoff_doubles_to_its_ceiling_and_resets_on_success():
