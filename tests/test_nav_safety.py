@@ -28,7 +28,7 @@ from mavhelm.nav.heading_watch import (
 )
 from mavhelm.nav.lsq import Fix
 from mavhelm.nav.navigator import Navigator
-from mavhelm.nav.noise_match import MAX_SCALE, WINDOW, NoiseMatch
+from mavhelm.nav.noise_match import MAX_SCALE, MIN_SCALE, SHRINK_AT, WINDOW, NoiseMatch
 from mavhelm.nav.replay import NEES_BAND, nees
 
 
@@ -115,6 +115,23 @@ def test_a_channel_disagreeing_beyond_its_noise_is_down_weighted_never_silenced(
         noise.observe("b1", 0.01)
     assert noise.scale("b1") == 1.0  # back to the declared σ, never under it
     assert noise.scale("other") == 1.0
+
+
+def test_a_channel_that_may_shrink_goes_under_its_declared_noise_slowly() -> None:
+    """A range's σ declared far too large shrinks, a tenth a window, to a third at most; a
+    window or two under SHRINK_AT by chance moves it little; a fix's never shrinks."""
+    noise = NoiseMatch()
+    for _ in range(2 * WINDOW):
+        noise.observe("b1", 0.5 * SHRINK_AT, may_shrink=True)
+        noise.observe("gps", 0.5 * SHRINK_AT)
+    assert noise.scale("b1") == pytest.approx(0.81)
+    assert noise.scale("gps") == 1.0
+    for _ in range(40 * WINDOW):
+        noise.observe("b1", 0.01, may_shrink=True)
+    assert noise.scale("b1") == pytest.approx(MIN_SCALE)
+    for _ in range(WINDOW):
+        noise.observe("b1", 9.0, may_shrink=True)  # disagreeing again: grows back at once
+    assert noise.scale("b1") == pytest.approx(3.0 * MIN_SCALE)
 
 
 def test_nees_of_an_honest_covariance_is_two_and_inside_the_band() -> None:

@@ -545,7 +545,8 @@ class Fusion:
             nis = verdict.d2 / max(verdict.dof, 1)
             self._check_heading(t, r, verdict.accepted, nis)
             if isinstance(r.obs, Range | Position) and verdict.accepted:
-                self.noise.observe(_channel(r.obs, r.sensor.name), nis)
+                self.noise.observe(_channel(r.obs, r.sensor.name), nis,
+                                   may_shrink=isinstance(r.obs, Range))
         ekf = self.ekf  # a doubt may have given it a bias state
         assert ekf is not None
         decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(I_VX), ekf.x.item(I_VY)))
