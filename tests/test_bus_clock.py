@@ -138,10 +138,11 @@ def _read_a_stalling_link(clock, wall: FakeWall, stall_at: float, stall_s: float
 
 @pytest.mark.parametrize("stall_s", [0.5, 3.0, 20.0])
 def test_a_stall_does_not_send_the_autopilot_clock_ahead(stall_s):
-    """Seen on the real SITL at x10 in CI: after a stall the backlog's old stamps, read
-    0.2 s before fresh ones, made the rate 20-100x too high; between two reads the clock ran
-    197 autopilot seconds ahead and a 120 s task time-out fired in its first tick. Each read
-    now counts by its newest stamp, and the rate is that envelope's slope."""
+    """CI, the real SITL at x10: one tick of the tuned mission's flight took 197 autopilot
+    seconds and its 120 s time-out fired. A stall does that to a rate measured on every
+    stamp: the backlog's old stamps, read 0.1 s before fresh ones, make it several times too
+    high, and the clock runs ahead between reads (here 9 s after a 3 s stall, 89 s after a
+    20 s one) and never comes back. Each read now counts once, by its newest stamp."""
     from mavhelm.core.clock import AutopilotClock
 
     wall = FakeWall()
