@@ -99,7 +99,6 @@ class AutopilotClock:
         self._t_obs = time.time() if epoch is None else float(epoch)
         self._wall_obs = start
         self._boot_offset: float | None = None
-        self._last_boot: float | None = None
         self._newest_boot: float | None = None
         self._samples: list[tuple[float, float]] = []
         self.warp = 1.0
@@ -122,12 +121,11 @@ class AutopilotClock:
         stamp, a backlog read 0.2 s before fresh ones made a 10x SITL look 100x: the clock
         ran tens of autopilot seconds ahead between two reads."""
         wall = self._wall()
-        if self._boot_offset is None or (self._last_boot is not None
-                                         and boot_s < self._last_boot - 1.0):
+        if self._boot_offset is None or (self._newest_boot is not None
+                                         and boot_s < self._newest_boot - 1.0):
             self._boot_offset = self.now() - boot_s  # first stamp, or the autopilot rebooted
             self._samples = []
             self._newest_boot = None
-        self._last_boot = boot_s
         if self._newest_boot is not None and boot_s <= self._newest_boot:
             return
         self._newest_boot = boot_s

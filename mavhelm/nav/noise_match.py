@@ -58,10 +58,6 @@ class NoiseMatch:
     def scale(self, channel: Hashable) -> float:
         return self._scale.get(channel, 1.0)
 
-    def scales(self) -> dict[Hashable, float]:
-        """Every channel whose σ is scaled now, with its scale."""
-        return {k: v for k, v in self._scale.items() if v != 1.0}
-
     def observe(self, channel: Hashable, nis: float, may_shrink: bool = False) -> None:
         total, n = self._sums.get(channel, (0.0, 0))
         total, n = total + min(nis, CLIP), n + 1
