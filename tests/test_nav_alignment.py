@@ -5,6 +5,7 @@ crabbing give none."""
 from __future__ import annotations
 
 import math
+import random
 
 import pytest
 
@@ -13,18 +14,23 @@ from mavhelm.nav.alignment import SAMPLES, MotionAlignment
 
 def _straight(a: MotionAlignment, heading_deg: float, offset_deg: float, seconds: float,
               *, t0: float = 0.0, bias_deg: float = 0.0, speed: float = 1.5,
-              drift_deg_s: float = 0.0) -> float:
-    """Drive straight on ``heading_deg``: a fix every 2 s, the sensor reading the heading plus
-    ``offset_deg`` (+ drift) at 10 Hz, the filter holding ``bias_deg`` (+ the same drift)."""
+              drift_deg_s: float = 0.0, held: bool = False, fix_noise: float = 0.0,
+              seed: int = 0) -> float:
+    """Drive straight on ``heading_deg``: a fix every 2 s (its error ``fix_noise`` m, 1-σ),
+    the sensor reading the heading plus ``offset_deg`` (+ drift) at 10 Hz, the filter holding
+    ``bias_deg`` (+ the same drift) and following the sensor, or, when ``held``, holding the
+    true heading (taken from the motion while it refuses the sensor)."""
+    rng = random.Random(seed)
     h = math.radians(heading_deg)
     t = t0
     while t < t0 + seconds:
         drift = drift_deg_s * t
         yaw = -math.radians(heading_deg + offset_deg + drift)
-        a.add_heading(t, yaw, -math.radians(bias_deg + drift))
+        a.add_heading(t, yaw, -math.radians(bias_deg + drift), -h if held else None)
         if round(t * 10) % 20 == 0:
             d = speed * t
-            a.add_fix(t, d * math.sin(h), d * math.cos(h))
+            a.add_fix(t, d * math.sin(h) + rng.gauss(0.0, fix_noise),
+                      d * math.cos(h) + rng.gauss(0.0, fix_noise))
         t = round(t + 0.1, 6)
     return t
 
@@ -118,3 +124,33 @@ def test_an_offset_short_of_turned_round_must_be_seen_to_last_without_a_gap() ->
     end = _straight(broken, 0.0, 40.0, 10.0)
     _straight(broken, 0.0, 40.0, 10.0, t0=end + 25.0)
     assert broken.estimate() is None
+
+
+def test_a_stale_bias_is_told_from_the_heading_the_filter_held_across_gaps() -> None:
+    """The filter held its heading from the motion while it refused a sensor now 100° off
+    (its bias went stale): fixes 2 m apart in error put the courses tens of degrees out, and
+    a 25 s silence splits the runs, so the correction itself is not told; the sensor's
+    offset from the heading held is, to a degree."""
+    a = MotionAlignment()
+    end = _straight(a, 30.0, 100.0, 12.0, held=True, fix_noise=2.0, seed=1)
+    _straight(a, 30.0, 100.0, 16.0, t0=end + 25.0, held=True, fix_noise=2.0, seed=2)
+    found = a.estimate()
+    assert found is not None and not found.told
+    assert math.degrees(found.stale) == pytest.approx(-100.0, abs=1.0)  # yaw = −heading
+    assert math.degrees(found.stale_spread) < 1.0
+    assert math.degrees(found.spread) > math.degrees(found.stale_spread) + 5.0
+    assert abs(math.degrees(found.heading_error)) < 20.0
+
+
+def test_a_kick_the_filter_refused_is_no_stale_bias() -> None:
+    """A compass kicked 60° for 15 s, refused while the filter held its heading: its runs
+    agree, but no offset that lasts ``MIN_SPAN`` is in them; a filter that followed the
+    sensor has no offset from it at all."""
+    kicked = MotionAlignment()
+    end = _straight(kicked, 30.0, 0.0, 20.0, held=True)
+    _straight(kicked, 30.0, 60.0, 15.0, t0=end, held=True)
+    assert kicked.estimate() is None
+    followed = MotionAlignment()
+    end = _straight(followed, 30.0, 0.0, 12.0, bias_deg=0.0)
+    _straight(followed, 30.0, 0.0, 16.0, t0=end + 25.0)
+    assert followed.estimate() is None

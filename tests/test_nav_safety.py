@@ -185,9 +185,28 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     assert sum(h != 90.0 for h in jumps) > 60
     stuck = [m.double for m in with_fault("heading_stuck", log, LAYOUT) if m.name == "C_HEADING"]
     assert stuck == [90.0] * len(stuck)  # a constant heading stuck is still the same
-    with pytest.raises(ValueError, match="unknown fault"):
+    with pytest.raises(ValueError, match="unknown or repeated fault"):
         with_fault("nothing", log, LAYOUT)
     assert not applies("ranges_gap", Layout(("C",), (), ("G",), ()))
+
+
+def test_faults_joined_are_made_on_one_log_together() -> None:
+    log = _log()
+    both = with_fault("heading_wander+ranges_gap", log, LAYOUT)
+    assert both == with_fault("heading_wander+ranges_gap", log, LAYOUT)
+    wandered = with_fault("heading_wander", log, LAYOUT)  # the first as when made alone
+    assert ([m for m in both if m.name == "C_HEADING"]
+            == [m for m in wandered if m.name == "C_HEADING"])
+    gap = [m.time for m in both if m.name == "R_RANGE_1"]
+    assert max(b - a for a, b in zip(gap, gap[1:], strict=False)) == pytest.approx(61.0)
+    jumped = with_fault("heading_wander+heading_jumps", log, LAYOUT)
+    assert ([m.double for m in jumped if m.name == "C_HEADING"]
+            != [m.double for m in wandered if m.name == "C_HEADING"])
+    assert applies("heading_wander+ranges_gap", LAYOUT)
+    assert not applies("heading_wander+heading_scale", LAYOUT)  # no odometer's heading
+    for bad in ("heading_wander+nothing", "heading_jumps+heading_jumps", "heading_wander+"):
+        with pytest.raises(ValueError, match="unknown or repeated fault"):
+            with_fault(bad, log, LAYOUT)
 
 
 def test_a_scaled_heading_errs_by_its_scale_times_each_turn_and_its_yaw_rate_with_it() -> None:

@@ -27,7 +27,7 @@ from mavhelm.companion.navlog import NavLogFiles
 from mavhelm.companion.tlog import bus_messages_from_tlog
 from mavhelm.core.errors import SettingError
 from mavhelm.core.mission import MissionError, load_mission
-from mavhelm.nav.faults import FAULTS, applies, layout_of, with_fault
+from mavhelm.nav.faults import FAULTS, applies, layout_of, parts, with_fault
 from mavhelm.nav.replay import ReplayResult, replay
 
 
@@ -39,15 +39,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nav-log", default=None,
                         help="folder for the .olog/.xlog (default: beside the log)")
     parser.add_argument("--no-nav-log", action="store_true", help="write no .olog/.xlog")
-    parser.add_argument("--fault", action="append", default=[], choices=[*FAULTS, "all"],
+    parser.add_argument("--fault", action="append", default=[], type=_fault_name,
+                        metavar="{" + ",".join([*FAULTS, "all"]) + "}",
                         help="also replay the log with this fault made on it (repeatable; "
-                             "all: every fault that applies), each with its own report")
+                             "all: every fault that applies; A+B: both on one log), each "
+                             "with its own report")
     parser.add_argument("--faults-only", action="store_true",
                         help="with --fault: replay only the fault runs, not the log as "
                              "recorded first")
     parser.add_argument("--seed", type=int, default=1, help="seed of the faults (default 1)")
     parser.add_argument("--jobs", type=int, default=None,
                         help="fault runs replayed at once (default: the machine's cores)")
+
+
+def _fault_name(text: str) -> str:
+    if text != "all":
+        try:
+            parts(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def replay_files(mission_path: str | Path, log_path: str | Path, *, period: float = 0.1,

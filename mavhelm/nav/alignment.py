@@ -80,12 +80,23 @@ def course_yaw(dx: float, dy: float) -> float:
 class Alignment:
     """The heading bias the filter held is short of the sensor's offset from the course made
     good by ``correction`` (rad, yaw), to ``spread``, over ``runs`` runs; ``velocity``
-    (east, north, m/s) is the latest run's."""
+    (east, north, m/s) is the latest run's. ``heading_error`` (rad, yaw) is how far the
+    filter's own heading was from the course made good over the same runs, to
+    ``heading_spread``: the correction when the filter followed the sensor, near zero when
+    it held its heading from the motion while it refused the sensor (the bias then went
+    stale, the heading did not). ``stale`` is the sensor's offset from the filter's heading
+    beyond the bias held (their difference, to ``stale_spread``: no course in it, so no fix
+    error). ``told``: the correction itself is told (the runs agree on it and lasted)."""
 
     correction: float
     spread: float
     runs: int
     velocity: tuple[float, float]
+    heading_error: float
+    heading_spread: float
+    stale: float
+    stale_spread: float
+    told: bool
 
 
 class MotionAlignment:
@@ -95,14 +106,17 @@ class MotionAlignment:
 
     def __init__(self) -> None:
         self._fixes: deque[tuple[float, float, float]] = deque()
-        self._headings: deque[tuple[float, float, float]] = deque()
-        """(t, sine, cosine) of each reading less the bias held, computed once."""
+        self._headings: deque[tuple[float, float, float, float, float]] = deque()
+        """(t, sine, cosine) of each reading less the bias held, then the sine and cosine of
+        the filter's own heading then; computed once."""
         self._astern: deque[float] = deque()
         self._speeds: deque[tuple[float, float]] = deque()
         """(t, speed over the ground the body velocity says, m/s)."""
-        self._runs: deque[tuple[float, float, float]] = deque()
-        """(t, sine, cosine) of each run's correction; their sums kept as runs come and go."""
-        self._sums = (0.0, 0.0)
+        self._runs: deque[tuple[float, ...]] = deque()
+        """(t, sine, cosine) of each run's correction, then of the filter's heading error,
+        then of the sensor's offset from the filter's heading (the two's difference); their
+        sums kept as runs come and go."""
+        self._sums: tuple[float, ...] = (0.0,) * 6
         self._velocity = (0.0, 0.0)
         self._estimate: Alignment | None = None
         self._fresh = True
@@ -113,17 +127,23 @@ class MotionAlignment:
         self._astern.clear()
         self._speeds.clear()
         self._runs.clear()
-        self._sums = (0.0, 0.0)
+        self._sums = (0.0,) * 6
         self._estimate, self._fresh = None, True
 
-    def add_heading(self, t: float, yaw: float, bias: float = 0.0) -> None:
-        """A reading of the orientation sensor (rad, yaw = −heading) and the heading bias
-        the filter holds for it then."""
+    def add_heading(self, t: float, yaw: float, bias: float = 0.0,
+                    held: float | None = None) -> None:
+        """A reading of the orientation sensor (rad, yaw = −heading), the heading bias the
+        filter holds for it then, and the filter's own yaw then (``held``; by default the
+        reading less the bias, a filter that follows the sensor)."""
         headings = self._headings
         if headings and t - headings[-1][0] < HEADING_EVERY:
             return
         a = yaw - bias
-        headings.append((t, math.sin(a), math.cos(a)))
+        sa, ca = math.sin(a), math.cos(a)
+        if held is None:
+            headings.append((t, sa, ca, sa, ca))
+        else:
+            headings.append((t, sa, ca, math.sin(held), math.cos(held)))
         while headings[0][0] < t - WINDOW:
             headings.popleft()
 
@@ -150,8 +170,8 @@ class MotionAlignment:
         while fixes and fixes[0][0] < t - WINDOW:
             fixes.popleft()
         while runs and runs[0][0] < t - WINDOW:
-            _, sr, cr = runs.popleft()
-            self._sums = (self._sums[0] - sr, self._sums[1] - cr)
+            _, *old = runs.popleft()
+            self._sums = tuple(a - b for a, b in zip(self._sums, old, strict=True))
             self._fresh = False
         start = next((f for f in reversed(fixes) if math.hypot(x - f[1], y - f[2]) >= RUN), None)
         fixes.append((t, x, y))
@@ -164,37 +184,57 @@ class MotionAlignment:
         speeds = [v for tv, v in _since(self._speeds, t0) if tv <= t]
         if speeds and sum(speeds) / len(speeds) * (t - t0) < MOVED * math.hypot(dx, dy):
             return
-        readings = [(sa, ca) for th, sa, ca in _since(self._headings, t0) if th <= t]
+        readings = [h for h in _since(self._headings, t0) if h[0] <= t]
         if len(readings) < 2:
             return
-        mean = math.atan2(sum(sa for sa, _ in readings), sum(ca for _, ca in readings))
+        mean = math.atan2(sum(h[1] for h in readings), sum(h[2] for h in readings))
         sm, cm = math.sin(mean), math.cos(mean)
-        if min(ca * cm + sa * sm for sa, ca in readings) < STRAIGHT:  # one strays > MAX_TURN
+        if min(h[2] * cm + h[1] * sm for h in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
-        correction = mean - course_yaw(dx, dy)
-        sr, cr = math.sin(correction), math.cos(correction)
-        runs.append((t, sr, cr))
-        self._sums = (self._sums[0] + sr, self._sums[1] + cr)
+        course = course_yaw(dx, dy)
+        correction = mean - course
+        held = math.atan2(sum(h[3] for h in readings), sum(h[4] for h in readings)) - course
+        stale = correction - held
+        run = (math.sin(correction), math.cos(correction), math.sin(held), math.cos(held),
+               math.sin(stale), math.cos(stale))
+        runs.append((t, *run))
+        self._sums = tuple(a + b for a, b in zip(self._sums, run, strict=True))
         self._velocity = (dx / (t - t0), dy / (t - t0))
         self._fresh = False
 
     def estimate(self) -> Alignment | None:
-        """The correction, once ``SAMPLES`` runs agree within ``MAX_SPREAD``; else None."""
+        """Once ``SAMPLES`` runs span ``MIN_SPAN``: the correction, where they agree on it
+        within ``MAX_SPREAD`` and followed one another within ``MAX_GAP`` (or it is
+        ``TURNED_ROUND``); or the sensor's offset from the filter's heading, where they agree
+        on that within ``MAX_SPREAD`` and it is larger than that, gaps or not: free of the
+        courses' errors, it is a steady offset, not a kick that runs in it happened to
+        share. Else None."""
         if self._fresh:
             return self._estimate
         self._fresh, self._estimate = True, None
         n = len(self._runs)
-        if n >= SAMPLES:
-            s, c = self._sums[0] / n, self._sums[1] / n
-            r = min(math.hypot(s, c), 1.0)
-            spread = math.sqrt(-2.0 * math.log(r)) if r > 0.0 else math.inf
-            times = [run[0] for run in self._runs]
-            gap = max(b - a for a, b in zip(times, times[1:], strict=False))
-            lasted = ((times[-1] - times[0] >= MIN_SPAN and gap <= MAX_GAP)
-                      or abs(math.atan2(s, c)) >= TURNED_ROUND)
-            if spread <= MAX_SPREAD and lasted:
-                self._estimate = Alignment(math.atan2(s, c), spread, n, self._velocity)
+        if n < SAMPLES:
+            return None
+        correction, spread = _circular(self._sums[0], self._sums[1], n)
+        heading_error, heading_spread = _circular(self._sums[2], self._sums[3], n)
+        stale, stale_spread = _circular(self._sums[4], self._sums[5], n)
+        times = [run[0] for run in self._runs]
+        gap = max(b - a for a, b in zip(times, times[1:], strict=False))
+        spanned = times[-1] - times[0] >= MIN_SPAN
+        told = spread <= MAX_SPREAD and ((spanned and gap <= MAX_GAP)
+                                         or abs(correction) >= TURNED_ROUND)
+        if told or (spanned and stale_spread <= MAX_SPREAD and abs(stale) >= MAX_SPREAD):
+            self._estimate = Alignment(correction, spread, n, self._velocity, heading_error,
+                                       heading_spread, stale, stale_spread, told)
         return self._estimate
+
+
+def _circular(sines: float, cosines: float, n: int) -> tuple[float, float]:
+    """The circular mean and spread (rad) of ``n`` angles given by their sums of sines and
+    cosines."""
+    s, c = sines / n, cosines / n
+    r = min(math.hypot(s, c), 1.0)
+    return math.atan2(s, c), (math.sqrt(-2.0 * math.log(r)) if r > 0.0 else math.inf)
 
 
 def _since(queue: deque, t0: float) -> list:

@@ -1184,24 +1184,26 @@ class EKF:
         if self.i_bias is not None and wander > self.config.yaw_bias_noise:
             self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
 
-    def realign_heading(self, bias: float, velocity: tuple[float, float], sigma_yaw: float,
-                        sigma_velocity: float) -> float:
+    def realign_heading(self, bias: float, sigma_yaw: float, turn: float | None = None,
+                        velocity: tuple[float, float] = (0.0, 0.0),
+                        sigma_velocity: float = 0.0) -> float:
         """The heading taken from the motion (:mod:`mavhelm.nav.alignment`): the bias set to
-        ``bias`` (the sensor's offset from the course made good), the heading turned by as
-        much (heading + bias still reads what the sensor reads), the velocity set to the
-        course and speed made good, the drift rate to zero; those states uncorrelated with
-        the rest, at 1-σ ``sigma_yaw`` and ``sigma_velocity`` (the drift at its prior).
-        Position, beacon offsets and the other learned states are kept. Returns the turn
-        given to the heading (rad)."""
+        ``bias`` (the sensor's offset from the heading), the drift rate to zero. With a
+        ``turn`` (rad) the filter's heading was wrong too: it is turned by as much, onto the
+        course made good, and the velocity set to the course and speed made good
+        (``velocity``, m/s east and north). The states set are uncorrelated with the rest,
+        at 1-σ ``sigma_yaw`` and ``sigma_velocity`` (the drift at its prior); position,
+        beacon offsets and the other learned states are kept. Returns the turn (rad)."""
         if self.i_bias is None:
             raise ValueError("realign_heading needs the heading-bias state")
-        x = self.kf.x
-        turn = wrap_angle(float(x[self.i_bias, 0]) - bias)
-        heading = wrap_angle(float(x[I_H, 0]) + turn)
-        self._reset_states((self.i_bias, I_H), (wrap_angle(bias), heading), sigma_yaw**2)
-        self._reset_states((I_VX, I_VY), velocity, sigma_velocity**2)
+        self._reset_states((self.i_bias,), (wrap_angle(bias),), sigma_yaw**2)
         if self.i_drift is not None:
             self._reset_states((self.i_drift,), (0.0,), self.config.sigma_yaw_drift**2)
+        if turn is None:
+            return 0.0
+        turn = wrap_angle(turn)
+        self._reset_states((I_H,), (wrap_angle(self.kf.x.item(I_H) + turn),), sigma_yaw**2)
+        self._reset_states((I_VX, I_VY), velocity, sigma_velocity**2)
         return turn
 
     def with_yaw_bias(self) -> EKF:

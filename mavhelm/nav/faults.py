@@ -24,6 +24,7 @@ those real vehicles meet:
                     two minutes
 ==================  ==========================================================================
 
+Faults join with ``+`` to be made on one log together (``heading_wander+heading_jumps``).
 A fault that finds nothing to act on (no ranges, no position sensor) leaves the log as it was
 and says so (``applies``).
 """
@@ -262,8 +263,24 @@ FAULTS: dict[str, FaultMaker] = {
 """Every fault by name, in the order a report lists them."""
 
 
+def parts(name: str) -> list[str]:
+    """The faults a name makes: one, or several joined by ``+`` (``heading_wander+heading_jumps``:
+    a compass both wandering and kicked by a motor; a real bad day seldom brings one fault)."""
+    found = name.split("+")
+    unknown = [part for part in found if part not in FAULTS]
+    if unknown or len(set(found)) != len(found):
+        raise ValueError(f"unknown or repeated fault in {name!r} (known: {', '.join(FAULTS)}; "
+                         "join several with +)")
+    return found
+
+
 def applies(name: str, layout: Layout) -> bool:
-    """Whether the fault has anything to act on in a mission of this layout."""
+    """Whether the fault (every one of a ``+`` joined name) has anything to act on in a
+    mission of this layout."""
+    return all(_applies(part, layout) for part in parts(name))
+
+
+def _applies(name: str, layout: Layout) -> bool:
     if name == "heading_scale":
         return bool(set(layout.orientation) & set(layout.body_velocity))
     if name.startswith("heading"):
@@ -277,10 +294,13 @@ def applies(name: str, layout: Layout) -> bool:
 
 def with_fault(name: str, messages: list[Message], layout: Layout,
                seed: int = 1) -> list[Message]:
-    """The recording ``messages`` (in time order) with the fault ``name`` made on it."""
-    if name not in FAULTS:
-        raise ValueError(f"unknown fault {name!r} (known: {', '.join(FAULTS)})")
+    """The recording ``messages`` (in time order) with the fault ``name`` made on it; the
+    faults of a ``+`` joined name one after the other, each from its own stream of the seed
+    (the first from the seed's own, as when made alone)."""
     ordered = sorted(messages, key=lambda m: m.time)
-    if not ordered:
-        return ordered
-    return FAULTS[name](ordered, layout, np.random.default_rng(seed))
+    for k, part in enumerate(parts(name)):
+        if not ordered:
+            break
+        rng = np.random.default_rng(seed if k == 0 else [seed, k])
+        ordered = FAULTS[part](ordered, layout, rng)
+    return ordered

@@ -33,11 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mavhelm.nav.alignment import MotionAlignment
+from mavhelm.nav.alignment import MAX_SPREAD, MotionAlignment
 from mavhelm.nav.beacon_watch import BeaconWatch
 from mavhelm.nav.ekf import (
     ALONG_TRACK,
     EKF,
+    I_H,
     I_VH,
     I_VX,
     I_VY,
@@ -446,10 +447,11 @@ class Fusion:
         """Headings, astern runs, then the slice's fixes (the LSQ's, else an XY sensor's)."""
         alignment, ekf = self.alignment, self.ekf
         bias = float(ekf.x[ekf.i_bias, 0]) if ekf is not None and ekf.i_bias is not None else 0.0
+        held = ekf.x.item(I_H) if ekf is not None else None
         for r in kept:
             obs = r.obs
             if isinstance(obs, Yaw):
-                alignment.add_heading(obs.t, obs.z, bias)
+                alignment.add_heading(obs.t, obs.z, bias, held)
             elif isinstance(obs, BodyVelocity) and obs.forward is not None:
                 alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
         if self.lsq is not None:
@@ -464,10 +466,17 @@ class Fusion:
 
     def _align(self, t: float) -> None:
         """A heading far out, taken from the motion (:mod:`mavhelm.nav.alignment`), where the
-        heading moves the position: when the runs made good put the sensor's offset more than
-        ``ALIGN_JUMP`` (and three times the combined 1-σ) from the bias the filter holds;
-        nearer, the bias state learns it itself. Beyond ``ALIGN_RESET`` the hidden states
-        start again at the last fix."""
+        heading moves the position. When the runs made good put the filter's own heading
+        more than ``ALIGN_JUMP`` (and three times the combined 1-σ) off the course, the
+        heading is turned onto it and the bias set to the sensor's offset from the course;
+        beyond ``ALIGN_RESET`` the hidden states start again at the last fix. When the
+        heading held (from the motion, the sensor refused as contradicting it) but the bias
+        went stale beyond the same bound, the bias alone is set, to the sensor's offset from
+        the heading held: the courses of fixes metres apart are only good to tens of
+        degrees (Plaza1, a compass both wandering and kicked: its bias 170° stale after
+        450 s refused, the heading right to 5°, turned by the bias's change as if it had
+        followed the sensor, 100 m off and re-initialised). Nearer, the bias state learns
+        the offset itself."""
         ekf = self.ekf
         if ekf is None or not self._heading_coupled:
             return
@@ -476,28 +485,43 @@ class Fusion:
             return
         i = ekf.i_bias
         bias, var = (float(ekf.x[i, 0]), float(ekf.P[i, i])) if i is not None else (0.0, 0.0)
-        off = abs(found.correction)
-        if off < max(ALIGN_JUMP, 3.0 * math.sqrt(var + found.spread**2)):
+        var_heading = float(ekf.P[I_H, I_H])
+        heading_wrong = found.told and abs(found.heading_error) >= max(
+            ALIGN_JUMP, 3.0 * math.sqrt(var_heading + found.heading_spread**2))
+        if heading_wrong:
+            offset = math.remainder(bias + found.correction, 2 * math.pi)
+        elif (abs(found.heading_error) < ALIGN_JUMP and found.stale_spread <= MAX_SPREAD
+              and abs(found.stale) >= max(ALIGN_JUMP,
+                                          3.0 * math.sqrt(var + found.stale_spread**2))):
+            offset = math.remainder(bias + found.stale, 2 * math.pi)
+        else:
             return
-        offset = math.remainder(bias + found.correction, 2 * math.pi)
         if ekf.i_bias is None:
             ekf = self._add_yaw_bias(t)
-        if off > ALIGN_RESET and self._last_fix is not None:
+        if heading_wrong and abs(found.heading_error) > ALIGN_RESET and self._last_fix is not None:
             x, y, sigma = self._last_fix
             ekf.reinitialise(x, y, sigma)
             ekf.warnings.pop()  # the decision below says it
             self.noise = NoiseMatch()
             self.beacon_watch = self._new_beacon_watch()
             self.survey_check.clear()
-        turn = ekf.realign_heading(offset, found.velocity,
-                                   max(found.spread, ALIGN_SIGMA), ALIGN_SIGMA_VELOCITY)
+        if heading_wrong:
+            turn = ekf.realign_heading(offset, max(found.spread, ALIGN_SIGMA),
+                                       -found.heading_error, found.velocity,
+                                       ALIGN_SIGMA_VELOCITY)
+            what = (f"heading taken from the motion: the orientation sensor reads "
+                    f"{math.degrees(offset):+.0f}° off the course made good over {found.runs} "
+                    f"runs (spread {math.degrees(found.spread):.0f}°); heading turned by "
+                    f"{math.degrees(turn):+.0f}°")
+        else:
+            ekf.realign_heading(offset, max(found.stale_spread, ALIGN_SIGMA))
+            what = (f"heading bias taken from the motion: the orientation sensor reads "
+                    f"{math.degrees(offset):+.0f}° off the heading the filter held, which "
+                    f"the course made good over {found.runs} runs confirms (to "
+                    f"{math.degrees(found.heading_error):+.0f}°); the heading kept")
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
         self.alignment.clear()
-        self._decide(Decision(t, HEADING, f"heading taken from the motion: the orientation "
-                              f"sensor reads {math.degrees(offset):+.0f}° off the course "
-                              f"made good over {found.runs} runs (spread "
-                              f"{math.degrees(found.spread):.0f}°); heading turned by "
-                              f"{math.degrees(turn):+.0f}°"))
+        self._decide(Decision(t, HEADING, what))
 
     def _new_beacon_watch(self) -> BeaconWatch:
         """A beacon watch whose offsets take the blame where the track cannot, or where a
