@@ -122,6 +122,40 @@ def test_scattered_or_interrupted_refusals_are_no_lockout(fates) -> None:
                for k, (accepted, y) in enumerate(fates))
 
 
+def test_growing_refusals_to_two_beacons_say_the_filter_drifted_off() -> None:
+    """Three ranges in a row refused to each of two beacons, growing (a filter carried off
+    by a wrong heading): the filter, not a beacon, is doubted, once; one beacon refused,
+    or two whose runs lie minutes apart, or runs broken by an accepted range, are not."""
+    watch = BeaconWatch()
+    fates = [(0.0, "A", False, 4.0), (0.3, "A", False, 5.5), (1.0, "B", False, -3.0),
+             (1.3, "B", False, -4.1), (2.0, "A", False, 7.2), (2.3, "C", True, 0.2),
+             (3.0, "B", False, -6.4)]
+    said = [watch.refused(t, name, accepted, y, 1.0) or (None if accepted else watch.adrift(t))
+            for t, name, accepted, y in fates]
+    assert said[:-1] == [None] * (len(fates) - 1)
+    last = said[-1]
+    assert last is not None and last.kind == BEACON and last.t == 3.0
+    assert "beacons A, B were each refused 3 or more times in a row" in last.why
+    assert "the filter is off, not a beacon" in last.why
+    assert watch.refused(3.5, "A", False, 8.0, 1.0) is None  # said once; counting again
+    assert watch.adrift(3.5) is None
+    one = BeaconWatch()
+    for k in range(4):
+        assert one.refused(0.2 * k, "A", False, 4.0 + 3.0 * k, 1.0) is None
+        assert one.adrift(0.2 * k) is None
+    apart = BeaconWatch()
+    for t, name in [(0.0, "A"), (1.0, "A"), (2.0, "A"), (100.0, "B"), (101.0, "B"),
+                    (102.0, "B")]:
+        assert apart.refused(t, name, False, 4.0 + t % 3.0, 1.0) is None
+        assert apart.adrift(t) is None
+    broken = BeaconWatch()
+    for t, name, accepted in [(0, "A", False), (1, "A", False), (2, "B", False),
+                              (3, "B", False), (4, "A", True), (5, "A", False),
+                              (6, "B", False)]:
+        assert broken.refused(float(t), name, accepted, 6.0, 1.0) is None
+        assert broken.adrift(float(t)) is None
+
+
 def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:
     """An offset learned 8 m wrong refuses every good range; re-opened (forgotten: back to
     its prior, value and covariance), the next one is used."""
@@ -179,9 +213,10 @@ def test_the_offsets_prior_is_a_shared_delay_and_each_beacons_own_part() -> None
 def test_a_bad_range_at_the_boot_does_not_lock_a_beacon_out_for_good() -> None:
     """The navigator's fusion, a still vehicle amid four beacons, started 5 m off: the second
     range heard, 13 m short, is accepted while every offset is uncertain by metres, and the
-    state it leaves refuses one beacon's good ranges. Five refused in a row and agreeing, the
-    filter forgets what the ranges taught it and says so; then the ranges are used again
-    and the position found (without that: half the ranges refused to the end, 8 m off)."""
+    state it leaves refuses good ranges. Refused in a row (to two beacons three times each,
+    or to one five times, agreeing), the filter forgets what the ranges taught it and says
+    so; then the ranges are used again and the position found (without that: half the
+    ranges refused to the end, 8 m off)."""
     from mavhelm.nav.fusion import Fusion, FusionConfig, Start
     from mavhelm.nav.sensors import Reading, SensorSpec
 
@@ -198,7 +233,9 @@ def test_a_bad_range_at_the_boot_does_not_lock_a_beacon_out_for_good() -> None:
         fusion.add(Reading(ranger, Range(t, b.name, z, 0.3)), t)
         fusion.step(t)
     said = [d for d in fusion.decisions if d.kind == BEACON]
-    assert len(said) == 1 and "ranges were all refused" in said[0].why
+    # two beacons' ranges refused three times each: the filter is off, not a beacon (before
+    # that rule, five of one beacon's, agreeing, said the same at 9.5 s)
+    assert len(said) == 1 and "the filter is off, not a beacon" in said[0].why
     assert said[0].why.endswith("re-opened") and said[0].t < 20.0
     _, _, tried, refused = fusion.nis["ranger"]
     assert tried == 400 and refused < 20

@@ -80,20 +80,19 @@ def course_yaw(dx: float, dy: float) -> float:
 class Alignment:
     """The heading bias the filter held is short of the sensor's offset from the course made
     good by ``correction`` (rad, yaw), to ``spread``, over ``runs`` runs; ``velocity``
-    (east, north, m/s) is the latest run's. ``heading_error`` (rad, yaw) is how far the
-    filter's own heading was from the course made good over the same runs, to
-    ``heading_spread``: the correction when the filter followed the sensor, near zero when
-    it held its heading from the motion while it refused the sensor (the bias then went
-    stale, the heading did not). ``stale`` is the sensor's offset from the filter's heading
-    beyond the bias held (their difference, to ``stale_spread``: no course in it, so no fix
-    error). ``told``: the correction itself is told (the runs agree on it and lasted)."""
+    (east, north, m/s) is the latest run's. ``stale`` is the sensor's offset from the
+    filter's own heading beyond the bias held, to ``stale_spread`` (no course in it, so no
+    fix error): near zero while the filter follows the sensor, the bias's staleness while
+    it holds its heading from the motion and refuses the sensor. ``heading_error`` (rad,
+    yaw) is how far the filter's heading was off the course made good over the runs (the
+    correction itself when the filter followed the sensor). ``told``: the correction is
+    told (the runs agree on it and lasted)."""
 
     correction: float
     spread: float
     runs: int
     velocity: tuple[float, float]
     heading_error: float
-    heading_spread: float
     stale: float
     stale_spread: float
     told: bool
@@ -108,14 +107,14 @@ class MotionAlignment:
         self._fixes: deque[tuple[float, float, float]] = deque()
         self._headings: deque[tuple[float, float, float, float, float]] = deque()
         """(t, sine, cosine) of each reading less the bias held, then the sine and cosine of
-        the filter's own heading then; computed once."""
+        its offset from the filter's own heading then; computed once."""
         self._astern: deque[float] = deque()
         self._speeds: deque[tuple[float, float]] = deque()
         """(t, speed over the ground the body velocity says, m/s)."""
         self._runs: deque[tuple[float, ...]] = deque()
-        """(t, sine, cosine) of each run's correction, then of the filter's heading error,
-        then of the sensor's offset from the filter's heading (the two's difference); their
-        sums kept as runs come and go."""
+        """(t, sine, cosine) of each run's correction, then of the sensor's offset from the
+        filter's heading over it, then of the filter's heading error (the two's difference);
+        their sums kept as runs come and go."""
         self._sums: tuple[float, ...] = (0.0,) * 6
         self._velocity = (0.0, 0.0)
         self._estimate: Alignment | None = None
@@ -139,11 +138,8 @@ class MotionAlignment:
         if headings and t - headings[-1][0] < HEADING_EVERY:
             return
         a = yaw - bias
-        sa, ca = math.sin(a), math.cos(a)
-        if held is None:
-            headings.append((t, sa, ca, sa, ca))
-        else:
-            headings.append((t, sa, ca, math.sin(held), math.cos(held)))
+        off = 0.0 if held is None else a - held
+        headings.append((t, math.sin(a), math.cos(a), math.sin(off), math.cos(off)))
         while headings[0][0] < t - WINDOW:
             headings.popleft()
 
@@ -191,12 +187,10 @@ class MotionAlignment:
         sm, cm = math.sin(mean), math.cos(mean)
         if min(h[2] * cm + h[1] * sm for h in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
-        course = course_yaw(dx, dy)
-        correction = mean - course
-        held = math.atan2(sum(h[3] for h in readings), sum(h[4] for h in readings)) - course
-        stale = correction - held
-        run = (math.sin(correction), math.cos(correction), math.sin(held), math.cos(held),
-               math.sin(stale), math.cos(stale))
+        correction = mean - course_yaw(dx, dy)
+        stale = math.atan2(sum(h[3] for h in readings), sum(h[4] for h in readings))
+        run = (math.sin(correction), math.cos(correction), math.sin(stale), math.cos(stale),
+               math.sin(correction - stale), math.cos(correction - stale))
         runs.append((t, *run))
         self._sums = tuple(a + b for a, b in zip(self._sums, run, strict=True))
         self._velocity = (dx / (t - t0), dy / (t - t0))
@@ -216,8 +210,8 @@ class MotionAlignment:
         if n < SAMPLES:
             return None
         correction, spread = _circular(self._sums[0], self._sums[1], n)
-        heading_error, heading_spread = _circular(self._sums[2], self._sums[3], n)
-        stale, stale_spread = _circular(self._sums[4], self._sums[5], n)
+        stale, stale_spread = _circular(self._sums[2], self._sums[3], n)
+        heading_error, _ = _circular(self._sums[4], self._sums[5], n)
         times = [run[0] for run in self._runs]
         gap = max(b - a for a, b in zip(times, times[1:], strict=False))
         spanned = times[-1] - times[0] >= MIN_SPAN
@@ -225,7 +219,7 @@ class MotionAlignment:
                                          or abs(correction) >= TURNED_ROUND)
         if told or (spanned and stale_spread <= MAX_SPREAD and abs(stale) >= MAX_SPREAD):
             self._estimate = Alignment(correction, spread, n, self._velocity, heading_error,
-                                       heading_spread, stale, stale_spread, told)
+                                       stale, stale_spread, told)
         return self._estimate
 
 

@@ -102,6 +102,15 @@ LOCKED_OUT: Final = 5
 AGREEMENT: Final = 4.0
 """Spread (largest less smallest innovation), in the ranges' σ, within which refused ranges
 agree: good ranges against a wrong offset."""
+ADRIFT_RUN: Final = 3
+ADRIFT_BEACONS: Final = 2
+ADRIFT_WINDOW: Final = 30.0
+"""``ADRIFT_RUN`` ranges in a row refused to each of ``ADRIFT_BEACONS`` beacons, the last
+within ``ADRIFT_WINDOW`` s: the filter is off, not a beacon (a beacon off its survey is one
+beacon; an outlier, one range). Its refused innovations grow rather than agree, so
+the lock-out above waits for the drift to stop: Plaza1, the heading drifting and kicked at
+once (seed 3), a kick taken for a turn carried the position 15 m off in 27 s while three
+beacons' ranges were refused (1.42 m RMS)."""
 
 
 class BeaconWatch:
@@ -124,6 +133,7 @@ class BeaconWatch:
         """The beacon the track singled out (:mod:`mavhelm.nav.survey_check`): held off its
         survey whatever the offsets say, until the track singles out another."""
         self._refusals: dict[str, deque[float]] = {}
+        self._last_refused: dict[str, float] = {}
         """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
 
     def deviations(self, ekf: EKF) -> dict[str, tuple[float, float]]:
@@ -163,6 +173,7 @@ class BeaconWatch:
         if refusals is None:
             refusals = self._refusals[beacon] = deque(maxlen=LOCKED_OUT)
         refusals.append(innovation)
+        self._last_refused[beacon] = t
         if len(refusals) < LOCKED_OUT or max(refusals) - min(refusals) > AGREEMENT * sigma:
             return None
         mean = statistics.fmean(refusals)
@@ -170,6 +181,22 @@ class BeaconWatch:
         return Decision(t, BEACON, f"beacon {beacon}'s last {LOCKED_OUT} ranges were all "
                         f"refused, agreeing with each other ({mean:+.1f} m against the "
                         "filter): the range offsets learned are doubted and re-opened")
+
+    def adrift(self, t: float) -> Decision | None:
+        """After a refusal: a decision when the ranges refused in a row say the filter is
+        off rather than a beacon (the owner widens its position and re-opens the offsets,
+        as for a lock-out)."""
+        adrift = sorted(name for name, run in self._refusals.items()
+                        if len(run) >= ADRIFT_RUN
+                        and t - self._last_refused.get(name, -math.inf) <= ADRIFT_WINDOW)
+        if len(adrift) < ADRIFT_BEACONS:
+            return None
+        for run in self._refusals.values():
+            run.clear()
+        return Decision(t, BEACON, f"the ranges to beacons {', '.join(adrift)} were each "
+                        f"refused {ADRIFT_RUN} or more times in a row: the filter is off, "
+                        "not a beacon: its position is doubted and widened, the range "
+                        "offsets learned re-opened")
 
     def review(self, t: float, ekf: EKF, singled_out: str | None = None) -> list[Decision]:
         """The weights brought up to date; ``newly_off`` names the beacon just found off its

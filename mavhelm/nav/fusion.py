@@ -487,7 +487,7 @@ class Fusion:
         bias, var = (float(ekf.x[i, 0]), float(ekf.P[i, i])) if i is not None else (0.0, 0.0)
         var_heading = float(ekf.P[I_H, I_H])
         heading_wrong = found.told and abs(found.heading_error) >= max(
-            ALIGN_JUMP, 3.0 * math.sqrt(var_heading + found.heading_spread**2))
+            ALIGN_JUMP, 3.0 * math.sqrt(var_heading + found.spread**2))
         if heading_wrong:
             offset = math.remainder(bias + found.correction, 2 * math.pi)
         elif (abs(found.heading_error) < ALIGN_JUMP and found.stale_spread <= MAX_SPREAD
@@ -507,8 +507,7 @@ class Fusion:
             self.survey_check.clear()
         if heading_wrong:
             turn = ekf.realign_heading(offset, max(found.spread, ALIGN_SIGMA),
-                                       -found.heading_error, found.velocity,
-                                       ALIGN_SIGMA_VELOCITY)
+                                       found.velocity, ALIGN_SIGMA_VELOCITY)
             what = (f"heading taken from the motion: the orientation sensor reads "
                     f"{math.degrees(offset):+.0f}° off the course made good over {found.runs} "
                     f"runs (spread {math.degrees(found.spread):.0f}°); heading turned by "
@@ -557,9 +556,14 @@ class Fusion:
             if isinstance(used, Range) and ekf.config.learn_beacon_offsets:
                 lockout = self.beacon_watch.refused(t, used.beacon, verdict.accepted,
                                                     verdict.innovation, used.sigma)
+                adrift = None
+                if lockout is None and not verdict.accepted and not self._lsq_disagrees():
+                    lockout = adrift = self.beacon_watch.adrift(t)
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation))
                     self._decide(lockout)
+                if adrift is not None and self.heading_watch.course_defined(t):
+                    ekf = self._doubt_heading(t)
             if isinstance(r.obs, Range) and verdict.accepted:
                 height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + r.obs.lever[2]
                 self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma, height)
@@ -587,6 +591,12 @@ class Fusion:
             for name in self.beacon_watch.newly_off:
                 self._forget(ekf, self.beacon_watch.weights[name], but=name,
                              fit=self.survey_check.fits.get(name) if name == singled_out else None)
+
+    def _lsq_disagrees(self) -> bool:
+        """Whether a trusted LSQ's last fix lay beyond ``MaxLSQEKFDeviation`` from the EKF:
+        its re-initialisation (spec 2.2.9) is on its way, and the filter is not widened
+        meanwhile."""
+        return self.safety.lsq_trusted and self.safety.monitor.disagreements > 0
 
     def _forget(self, ekf: EKF, error: float, but: str | None = None,
                 fit: Fit | None = None) -> None:
@@ -672,8 +682,14 @@ class Fusion:
         decision = watch.position(t, nis)
         if decision is not None:
             self._decide(decision)
-        if watch.doubted_at != t:
-            return
+        if watch.doubted_at == t:
+            self._doubt_heading(t)
+
+    def _doubt_heading(self, t: float) -> EKF:
+        """The heading (its bias, when estimated or once added) doubted: the position data
+        decide it where the motion makes it observable."""
+        ekf = self.ekf
+        assert ekf is not None
         if ekf.i_bias is None and self._heading_coupled:
             ekf = self._add_yaw_bias(t)
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
@@ -681,6 +697,7 @@ class Fusion:
             # nothing tells a bias from a heading: the heading itself is down-weighted
             scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE, HEADING_MAX_SCALE)
             self._heading_scale = (scale, t + WANDER_TIME)
+        return ekf
 
     def _add_yaw_bias(self, t: float) -> EKF:
         """A heading-bias state for a filter that has none, once the motion makes one
