@@ -21,6 +21,15 @@ reading says the vehicle goes astern, or crabs beyond ``MAX_TURN``, is not used 
 is not its heading), nor one the body velocity says the vehicle did not travel (``MOVED``: the
 fixes moved, not the vehicle).
 
+A filter that refuses the sensor (it contradicts the motion: kicked, stuck) holds its heading
+from the motion meanwhile, and the bias it holds goes stale; its heading is then right, and
+turning it by the bias's change, as for a filter that followed the sensor, makes it wrong
+(Plaza1, the heading drifting and stuck at once: 12.5 m RMS). So each reading also gives its
+offset from the filter's own heading (``held``), and each run the filter's heading error
+against the course. That offset has no course in it, none of the fixes' error (runs between
+LSQ fixes 5 m apart: courses 10-20° out, the offset to a degree), so runs agreeing on it
+across gaps make an estimate too: a steady offset, not a kick, once they span ``MIN_SPAN``.
+
 Pure logic: the navigator (:mod:`mavhelm.nav.fusion`) feeds it and decides when to use it.
 """
 
