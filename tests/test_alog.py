@@ -112,3 +112,31 @@ def test_logger_subscribes_to_everything(tmp_path: Path) -> None:
     assert logger.name == "pLogger"
     logger.close()
     logger.close()
+
+
+def test_a_stop_while_the_lines_are_formatted_loses_nothing(tmp_path: Path,
+                                                            monkeypatch) -> None:
+    """SIGTERM raises KeyboardInterrupt wherever the loop is; landing in the idle time's
+    formatting, it used to take the tick's lines with it (a hand-back's record missing from
+    a CI run's log). They stay pending, and ``close`` writes each once."""
+    import mavhelm.companion.alog as alog
+
+    bus = Bus(SimClock(100.0))
+    logger = AlogLogger(bus, tmp_path / "stop.alog")
+    logger.on_mail([Message("A", 1.0, 100.1, "x"), Message("HELM_HANDBACK_DONE", "SURFACE",
+                                                           100.2, "x")], 100.2)
+    calls = []
+
+    def interrupted(msg: Message, start: float) -> str:
+        calls.append(msg.name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return format_line(msg, start)
+
+    monkeypatch.setattr(alog, "format_line", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        logger.idle()
+    monkeypatch.setattr(alog, "format_line", format_line)
+    logger.close()
+    names = [m.name for m in read_alog(tmp_path / "stop.alog")]
+    assert names == ["A", "HELM_HANDBACK_DONE"]

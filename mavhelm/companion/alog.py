@@ -145,11 +145,15 @@ class AlogLogger(App):
             self.idle()
 
     def idle(self) -> None:
-        if self._file is None:
+        """Write what is pending, then forget it: a stop (SIGTERM, Ctrl-C) that lands while
+        the lines are formatted leaves them pending for ``close`` to write (the last tick
+        before a clean stop was lost when they were taken first: a hand-back's record, in CI)."""
+        if self._file is None or not self._pending:
             return
-        pending, self._pending = self._pending, []
         start = self.start
-        self._file.writelines(format_line(msg, start) + "\n" for msg in pending)
+        text = "".join([format_line(msg, start) + "\n" for msg in self._pending])
+        self._file.write(text)
+        self._pending = []
         self._file.flush()
 
     def close(self) -> None:
