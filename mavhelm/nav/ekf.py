@@ -1184,27 +1184,32 @@ class EKF:
         if self.i_bias is not None and wander > self.config.yaw_bias_noise:
             self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
 
-    def realign_heading(self, bias: float, sigma_yaw: float,
-                        velocity: tuple[float, float] | None = None,
-                        sigma_velocity: float = 0.0) -> float:
-        """The heading taken from the motion (:mod:`mavhelm.nav.alignment`): the bias set to
-        ``bias`` (the sensor's offset from the heading), the drift rate to zero. With a
-        ``velocity`` (m/s east and north: the course and speed made good) the filter's
-        heading was wrong with the bias: it is turned by the bias's change (heading + bias
-        still reads what the sensor reads) and the velocity set to it; without, the heading
-        held is kept. The states set are uncorrelated with the rest, at 1-σ ``sigma_yaw``
-        and ``sigma_velocity`` (the drift at its prior); position, beacon offsets and the
-        other learned states are kept. Returns the turn given to the heading (rad)."""
+    def reset_yaw_bias(self, bias: float, sigma_yaw: float) -> None:
+        """The heading bias set to ``bias`` (the sensor's offset from the heading, rad) at
+        1-σ ``sigma_yaw``, its drift rate to zero at its prior; both uncorrelated with the
+        rest, the heading itself kept (:mod:`mavhelm.nav.alignment`: a heading held from the
+        motion while the bias went stale)."""
         if self.i_bias is None:
-            raise ValueError("realign_heading needs the heading-bias state")
-        turn = wrap_angle(self.kf.x.item(self.i_bias) - bias) if velocity is not None else 0.0
+            raise ValueError("reset_yaw_bias needs the heading-bias state")
         self._reset_states((self.i_bias,), (wrap_angle(bias),), sigma_yaw**2)
         if self.i_drift is not None:
             self._reset_states((self.i_drift,), (0.0,), self.config.sigma_yaw_drift**2)
-        if velocity is not None:
-            self._reset_states((I_H,), (wrap_angle(self.kf.x.item(I_H) + turn),),
-                               sigma_yaw**2)
-            self._reset_states((I_VX, I_VY), velocity, sigma_velocity**2)
+
+    def realign_heading(self, bias: float, sigma_yaw: float, velocity: tuple[float, float],
+                        sigma_velocity: float) -> float:
+        """The heading taken from the motion (:mod:`mavhelm.nav.alignment`), the filter's
+        heading wrong with its bias: the bias reset to ``bias`` (the sensor's offset from the
+        course made good), the heading turned by as much (heading + bias still reads what
+        the sensor reads), the velocity set to the course and speed made good; the heading
+        and velocity uncorrelated with the rest, at 1-σ ``sigma_yaw`` and
+        ``sigma_velocity``. Position, beacon offsets and the other learned states are kept.
+        Returns the turn given to the heading (rad)."""
+        if self.i_bias is None:
+            raise ValueError("realign_heading needs the heading-bias state")
+        turn = wrap_angle(self.kf.x.item(self.i_bias) - bias)
+        self.reset_yaw_bias(bias, sigma_yaw)
+        self._reset_states((I_H,), (wrap_angle(self.kf.x.item(I_H) + turn),), sigma_yaw**2)
+        self._reset_states((I_VX, I_VY), velocity, sigma_velocity**2)
         return turn
 
     def with_yaw_bias(self) -> EKF:

@@ -128,6 +128,12 @@ class FilterSafety:
         self.last_fix_time: float | None = None
         self.lsq_trusted = True
 
+    @property
+    def disagreeing(self) -> bool:
+        """A trusted LSQ's last fix lay beyond ``MaxLSQEKFDeviation`` from the EKF: a
+        re-initialisation may be on its way."""
+        return self.lsq_trusted and self.monitor.disagreements > 0
+
     def start(self, t: float) -> None:
         """The LSQ starts listening at ``t`` (its time-out counts from here until a fix)."""
         if self.last_fix_time is None:

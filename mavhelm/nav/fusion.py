@@ -473,8 +473,8 @@ class Fusion:
         heading held (from the motion, the sensor refused as contradicting it) but the bias
         went stale beyond the same bound, the bias alone is set, to the sensor's offset from
         the heading held: the courses of fixes metres apart are only good to tens of
-        degrees (Plaza1, a compass both wandering and kicked: its bias 170° stale after
-        450 s refused, the heading right to 5°, turned by the bias's change as if it had
+        degrees (Plaza1, a compass both wandering and kicked: its bias about 150° stale
+        after 450 s refused, the heading right to 5°, turned by the bias's change as if it had
         followed the sensor, 100 m off and re-initialised). Nearer, the bias state learns
         the offset itself."""
         ekf = self.ekf
@@ -513,7 +513,7 @@ class Fusion:
                     f"runs (spread {math.degrees(found.spread):.0f}°); heading turned by "
                     f"{math.degrees(turn):+.0f}°")
         else:
-            ekf.realign_heading(offset, max(found.stale_spread, ALIGN_SIGMA))
+            ekf.reset_yaw_bias(offset, max(found.stale_spread, ALIGN_SIGMA))
             what = (f"heading bias taken from the motion: the orientation sensor reads "
                     f"{math.degrees(offset):+.0f}° off the heading the filter held, which "
                     f"the course made good over {found.runs} runs confirms (to "
@@ -557,7 +557,8 @@ class Fusion:
                 lockout = self.beacon_watch.refused(t, used.beacon, verdict.accepted,
                                                     verdict.innovation, used.sigma)
                 adrift = None
-                if lockout is None and not verdict.accepted and not self._lsq_disagrees():
+                # while the LSQ disagrees, its re-initialisation (spec 2.2.9) comes first
+                if lockout is None and not verdict.accepted and not self.safety.disagreeing:
                     lockout = adrift = self.beacon_watch.adrift(t)
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation))
@@ -591,12 +592,6 @@ class Fusion:
             for name in self.beacon_watch.newly_off:
                 self._forget(ekf, self.beacon_watch.weights[name], but=name,
                              fit=self.survey_check.fits.get(name) if name == singled_out else None)
-
-    def _lsq_disagrees(self) -> bool:
-        """Whether a trusted LSQ's last fix lay beyond ``MaxLSQEKFDeviation`` from the EKF:
-        its re-initialisation (spec 2.2.9) is on its way, and the filter is not widened
-        meanwhile."""
-        return self.safety.lsq_trusted and self.safety.monitor.disagreements > 0
 
     def _forget(self, ekf: EKF, error: float, but: str | None = None,
                 fit: Fit | None = None) -> None:
