@@ -296,3 +296,27 @@ def test_a_position_fix_anchors_the_offsets_and_gives_them_the_blame_again() -> 
     fusion.add(Reading(SensorSpec("XY", "GPS", "gps"), Position(1.0, 11.0, 20.0, 0.3)), 1.0)
     fusion.step(1.0)
     assert fusion.beacon_watch.blame_by_offsets
+
+
+@pytest.mark.parametrize("swap", [False, True])
+def test_each_deviations_sigma_is_its_offset_less_the_others_mean(swap) -> None:
+    """The σ of each beacon's offset less the mean of the others', from the filter's
+    correlated offsets: read from P's block whether the offsets lie in a row (the EKF's
+    layout) or not (the same names mapped to other states)."""
+    ekf = _ekf({"A": 3.3, "B": 0.3, "C": 2.3, "D": 0.2})
+    index = [ekf.offset_index(b.name) for b in BEACONS]
+    rng = np.random.default_rng(4)
+    root = rng.normal(0.0, 0.3, (len(index), len(index)))
+    ekf.P[np.ix_(index, index)] = root @ root.T + 0.01 * np.eye(len(index))
+    if swap:  # A and C trade states: the watch's indices are no longer a run
+        ekf._offset_index["A"], ekf._offset_index["C"] = index[2], index[0]
+        index = [ekf.offset_index(b.name) for b in BEACONS]
+        assert index != sorted(index)
+    found = BeaconWatch().deviations(ekf)
+    offsets = [ekf.x[i, 0] - b.offset for b, i in zip(BEACONS, index, strict=True)]
+    for k, b in enumerate(BEACONS):
+        c = np.full(len(index), -1.0 / (len(index) - 1))
+        c[k] = 1.0
+        variance = c @ ekf.P[np.ix_(index, index)] @ c
+        assert found[b.name][1] == pytest.approx(math.sqrt(variance), rel=1e-12)
+        assert found[b.name][0] == pytest.approx(abs(offsets[k] - float(np.median(offsets))))

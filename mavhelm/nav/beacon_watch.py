@@ -149,18 +149,18 @@ class BeaconWatch:
         beacons = list(ekf.beacons)
         if len(beacons) < MIN_BEACONS or not ekf.config.learn_beacon_offsets:
             return {}
-        x = ekf.x
+        x = ekf.x.ravel().tolist()
         index = [ekf.offset_index(name) for name in beacons]
-        offsets = {name: float(x[i, 0]) - ekf.beacons[name].offset
-                   for name, i in zip(beacons, index, strict=True)}
-        median = statistics.median(offsets.values())
-        n = len(index)
-        contrasts = np.full((n, n), -1.0 / (n - 1))
-        np.fill_diagonal(contrasts, 1.0)
-        block = ekf.P[np.ix_(index, index)]
-        variances = np.einsum("ij,jk,ik->i", contrasts, block, contrasts)
-        return {name: (abs(offset - median), math.sqrt(max(float(v), 0.0)))
-                for (name, offset), v in zip(offsets.items(), variances, strict=True)}
+        offsets = [x[i] - ekf.beacons[name].offset for name, i in zip(beacons, index, strict=True)]
+        median = statistics.median(offsets)
+        a = index[0]
+        contiguous = index == list(range(a, a + len(index)))  # as the EKF lays them out
+        block = ekf.P[a:a + len(index), a:a + len(index)] if contiguous else \
+            ekf.P[index][:, index]
+        contrasts = _contrasts(len(index))
+        variances = np.einsum("ij,jk,ik->i", contrasts, block, contrasts).tolist()
+        return {name: (abs(offset - median), math.sqrt(max(v, 0.0)))
+                for name, offset, v in zip(beacons, offsets, variances, strict=True)}
 
     def sigma(self, beacon: str, declared: float) -> float:
         deviation = self.weights.get(beacon)
@@ -262,3 +262,18 @@ class BeaconWatch:
         self._moved = t
         return Decision(t, BEACON, f"beacon {name}'s ranges {why}: it is off its survey, its "
                         "ranges all but left out")
+
+
+_CONTRASTS: dict[int, np.ndarray] = {}
+
+
+def _contrasts(n: int) -> np.ndarray:
+    """Each of ``n`` beacons' offset less the others' mean, as rows (one matrix per ``n``,
+    made once: the watch asks at every range)."""
+    contrasts = _CONTRASTS.get(n)
+    if contrasts is None:
+        contrasts = np.full((n, n), -1.0 / (n - 1))
+        np.fill_diagonal(contrasts, 1.0)
+        contrasts.setflags(write=False)
+        _CONTRASTS[n] = contrasts
+    return contrasts
