@@ -79,6 +79,9 @@ from mavhelm.nav.heading_watch import (
 )
 from mavhelm.nav.lsq import LSQ, Fix
 from mavhelm.nav.noise_match import NoiseMatch
+from mavhelm.nav.range_alignment import MIN_TURN as RANGE_MIN_TURN
+from mavhelm.nav.range_alignment import WINDOW as RANGE_WINDOW
+from mavhelm.nav.range_alignment import RangeAlignment, RangeHeading
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
     BEACON,
@@ -134,6 +137,9 @@ ALIGN_SIGMA = math.radians(10.0)
 """rad: the least 1-σ of a heading taken from the motion."""
 ALIGN_SIGMA_VELOCITY = 0.5
 """m/s: the 1-σ of the velocity set from the last run made good."""
+RANGE_CHECK_EVERY = 2.0
+"""s between two asks of the heading from the ranges while a doubt lasts (``RANGE_WINDOW``
+after it)."""
 
 
 @dataclass(frozen=True)
@@ -236,6 +242,15 @@ class Fusion:
         (:meth:`_align`)."""
         self._last_fix: tuple[float, float, float] | None = None
         """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
+        self.range_alignment = RangeAlignment({b.name: b for b in config.beacons})
+        """The heading sensor's offset told by the ranges, asked only while in doubt
+        (:meth:`_align_from_ranges`)."""
+        self._range_doubt = (-math.inf, -math.inf)
+        """(until when the ranges are asked for the heading, when next)."""
+        self._range_heading: RangeHeading | None = None
+        """The ranges' last answer, which the next must confirm."""
+        self._contradicted_at = -math.inf
+        """When a heading sensor was last refused as contradicting the motion."""
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""
@@ -442,18 +457,27 @@ class Fusion:
         if kept:
             self._update(t, kept)
         self._align(t)
+        self._align_from_ranges(t)
 
     def _feed_alignment(self, kept: list[Reading], fixes: list[Fix]) -> None:
         """Headings, astern runs, then the slice's fixes (the LSQ's, else an XY sensor's)."""
         alignment, ekf = self.alignment, self.ekf
         bias = float(ekf.x[ekf.i_bias, 0]) if ekf is not None and ekf.i_bias is not None else 0.0
         held = ekf.x.item(I_H) if ekf is not None else None
+        ranges = self.range_alignment
         for r in kept:
             obs = r.obs
             if isinstance(obs, Yaw):
                 alignment.add_heading(obs.t, obs.z, bias, held)
+                ranges.add_heading(obs.t, obs.z)
             elif isinstance(obs, BodyVelocity) and obs.forward is not None:
                 alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
+                ranges.add_body_velocity(obs.t, obs.forward, obs.starboard)
+            elif isinstance(obs, Range) and ekf is not None:
+                height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + obs.lever[2]
+                weighed = self._weighted(obs, r.sensor.name)  # its σ as the filter weighs it
+                sigma = weighed.sigma if isinstance(weighed, Range) else obs.sigma
+                ranges.add_range(obs.t, obs.beacon, obs.z, sigma, height)
         if self.lsq is not None:
             for fix in fixes:
                 alignment.add_fix(fix.t, fix.x, fix.y)
@@ -522,6 +546,61 @@ class Fusion:
         self.alignment.clear()
         self._decide(Decision(t, HEADING, what))
 
+    def _doubt_from_ranges(self, t: float, until: float | None = None) -> None:
+        """A reason to doubt the heading: the ranges are asked for it until they confirm
+        the filter or correct it, for ``RANGE_WINDOW`` s at most unless ``until`` says."""
+        was, next_at = self._range_doubt
+        self._range_doubt = (max(was, t + RANGE_WINDOW if until is None else until),
+                             next_at if t <= was else t)
+
+    def _align_from_ranges(self, t: float) -> None:
+        """While in doubt, a heading far out taken from the ranges
+        (:mod:`mavhelm.nav.range_alignment`): the filter starts again where the ranges put
+        the vehicle, its heading turned onto the one they fit."""
+        until, next_at = self._range_doubt
+        ekf = self.ekf
+        if ekf is None or t > until or t < next_at or not self._heading_coupled:
+            return
+        if t - self._contradicted_at < RANGE_WINDOW:
+            return  # the window's track bends where a kicked or stuck sensor was refused
+        self._range_doubt = (until, t + RANGE_CHECK_EVERY)
+        near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
+                                                                      ekf.x.item(I_Y))
+        found = self.range_alignment.estimate(t, near)
+        last, self._range_heading = self._range_heading, found
+        if (found is None or last is None or found.t - last.t > 2 * RANGE_CHECK_EVERY
+                or abs(math.remainder(found.bias - last.bias, 2 * math.pi)) > MAX_SPREAD):
+            return  # two answers in a row must agree: a stuck sensor's track bends them
+        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+        if abs(math.remainder(found.bias - bias, 2 * math.pi)) < RANGE_MIN_TURN:
+            self._range_doubt, self._range_heading = (-math.inf, -math.inf), None
+            return  # the filter holds the heading the ranges say: the doubt is over
+        if ekf.i_bias is None:
+            ekf = self._add_yaw_bias(t)
+        held = ekf.x.item(I_H)
+        sigma = max(found.sigma, 1.0)
+        restarted = abs(math.remainder(found.bias - bias, 2 * math.pi)) > ALIGN_RESET
+        if restarted:  # as _align: so far out, every hidden state was misled too
+            ekf.reinitialise(found.x, found.y, sigma, yaw=self._last_yaw)
+            ekf.warnings.pop()  # the decision below says it
+            self.noise = NoiseMatch()
+            self.beacon_watch = self._new_beacon_watch()
+            self.survey_check.clear()
+        ekf.realign_heading(found.bias, ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
+        turn = math.remainder(ekf.x.item(I_H) - held, 2 * math.pi)
+        ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+        self.alignment.clear()
+        self.range_alignment.clear()
+        self._range_doubt, self._range_heading = (t + RANGE_WINDOW, t), None  # confirm it
+        self._decide(Decision(t, HEADING, (
+            f"heading taken from the ranges: the orientation sensor reads "
+            f"{math.degrees(found.bias):+.0f}° off the heading the last "
+            f"{RANGE_WINDOW:.0f} s of ranges fit (χ² per dof {found.chi2:.1f}, "
+            f"{found.chi2_other:.1f} with any other turn), the filter's bias "
+            f"{math.degrees(bias):+.0f}°; heading turned by {math.degrees(turn):+.0f}°"
+            + (f", the filter restarted at ({found.x:.1f}, {found.y:.1f}) ± {sigma:.1f} m"
+               if restarted else ""))))
+
     def _new_beacon_watch(self) -> BeaconWatch:
         """A beacon watch whose offsets take the blame where the track cannot, or where a
         position fix anchors them."""
@@ -563,6 +642,7 @@ class Fusion:
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation))
                     self._decide(lockout)
+                    self._doubt_from_ranges(t)
                 if adrift is not None and self.heading_watch.course_defined(t):
                     ekf = self._doubt_heading(t)
             if isinstance(r.obs, Range) and verdict.accepted:
@@ -671,6 +751,8 @@ class Fusion:
             decision = watch.heading(t, r.sensor.name, accepted)
             if decision is not None:
                 self._decide(decision)
+            if watch.contradicting:
+                self._contradicted_at = t
             return
         if not isinstance(r.obs, Range | Position) or not accepted:
             return  # an outlier is the gate's business: a wrong heading shows first
@@ -688,6 +770,7 @@ class Fusion:
         if ekf.i_bias is None and self._heading_coupled:
             ekf = self._add_yaw_bias(t)
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+        self._doubt_from_ranges(t)
         if ekf.i_bias is None:
             # nothing tells a bias from a heading: the heading itself is down-weighted
             scale = min(self._heading_scale[0] * HEADING_DOUBT_SCALE, HEADING_MAX_SCALE)
@@ -734,6 +817,7 @@ class Fusion:
         self.reinitialisations += 1
         self.alignment.clear()  # its runs were taken against the bias the filter held
         self._decide(decision)
+        self._doubt_from_ranges(fix.t)
 
     def _score(self, sensor: str, d2: float, dof: int, accepted: bool) -> None:
         tally = self.nis.get(sensor)
@@ -770,6 +854,7 @@ class Fusion:
             self.ekf.x[self.ekf.i_z, 0] = s.z
         self.decisions.append(Decision(t, BOOTED, f"EKF started at the mission's start "
                                        f"({s.x:.1f}, {s.y:.1f}) ± {s.sigma_xy:g} m"))
+        self._doubt_from_ranges(t, math.inf)  # its heading is the sensor's, unconfirmed
 
     def _try_boot(self, t: float, readings: list[Reading], fixes: list[Fix]) -> None:
         yaw = self._last_yaw if self._last_yaw is not None else 0.0
@@ -801,6 +886,7 @@ class Fusion:
         self.boot_fix = fix
         self._decide(Decision(t, BOOTED, f"EKF booted from the LSQ at ({fix.x:.1f}, "
                               f"{fix.y:.1f})"))
+        self._doubt_from_ranges(t, math.inf)
 
     def _check_lsq(self, horizon: float) -> None:
         if self.lsq is None:

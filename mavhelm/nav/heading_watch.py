@@ -160,6 +160,11 @@ class HeadingWatch:
         return None
 
     @property
+    def contradicting(self) -> bool:
+        """Whether a heading sensor is refused for contradicting the motion (kicked, stuck)."""
+        return bool(self._contradicting)
+
+    @property
     def rejecting(self) -> bool:
         """Whether a heading sensor's latest reading was rejected (it may be off just now)."""
         return bool(self._rejected_since)

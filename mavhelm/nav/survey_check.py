@@ -209,7 +209,7 @@ class SurveyCheck:
             kept = np.array([np.ones(len(window), dtype=bool)]
                             + [heard_from != name for name in names])
             keys = [None, *names]
-            found, solved = _fits(columns, kept, first.position, now, t,
+            found, solved = fit_tracks(columns, kept, first.position, now, t,
                                   np.array([shapes.get(key, NO_SHAPE) for key in keys]))
             fits.update(zip(keys, found, strict=True))
             shapes.clear()
@@ -227,7 +227,7 @@ class SurveyCheck:
         return None
 
 
-def _fits(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
+def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
           now: tuple[float, float], t: float, shape: np.ndarray
           ) -> tuple[list[Fit], np.ndarray]:
     """The ranges (rows of ``columns``: range less the beacon's offset prior, its σ, the

@@ -1,0 +1,192 @@
+"""The heading from the ranges: the dead-reckoned track turned until the ranges fit it.
+
+:mod:`mavhelm.nav.alignment` takes a heading far out from the course made good between
+position fixes. Where the fixes are an LSQ's from a few beacons they are good to metres
+(Plaza1: 5 m RMS), and runs of ``alignment.RUN`` between them rarely agree within its spread:
+a filter booted under way with its heading sensor half a turn out (Plaza1 replayed from
+600 s with the heading drifting 180° in five minutes) steered its dead reckoning away, was
+re-initialised from the LSQ twice and scored 13 m RMS against the LSQ's 5 m.
+
+The ranges themselves are good to a metre. The track dead-reckoned from the body velocity and
+the heading sensor's raw readings over the last ``WINDOW`` s, shifted and turned, must fit the
+ranges heard along it (with a range scale and an offset shared by every beacon, and a speed
+scale: :func:`mavhelm.nav.survey_check.fit_tracks`). Fitted from ``STARTS`` turns round the
+circle, the best fit's turn is the sensor's offset from the true heading, wherever it lies,
+and its shift says where the vehicle is. It is believed when the track spans ``MIN_SPAN`` s
+and ``MIN_TRAVEL`` m, the ranges reach ``MIN_BEACONS`` beacons, the best fit is good and
+``RATIO`` times better (robust χ² per degree of freedom) than any other turn's. The owner
+acts on it where the filter's bias is ``MIN_TURN`` or more from it, and not while the window
+holds readings it refused as contradicting the motion (a kicked or stuck sensor bends the
+track: Plaza1's drifting and kicked heading, one draw, 0.79 → 1.06 m when it did). Not on
+the fit's position alone: restarting a filter whose heading the ranges confirm wherever a fit
+put the vehicle 5 m from it cost Plaza1's kicked compass 0.36 → 0.89 m on one draw (a window
+mostly of the robot standing still, fitted at χ² 1.3-1.9), for 2.5 → 1.4 m on the starts
+under way whose heading was learned too late to keep the position.
+
+Pure logic: the navigator (:mod:`mavhelm.nav.fusion`) feeds it every reading and asks it only
+once it has a reason to doubt the heading (a re-initialisation, the filter found adrift, the
+heading doubted), so a healthy run pays nothing for it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+
+from mavhelm.nav.ekf import Beacon
+from mavhelm.nav.survey_check import fit_tracks
+
+WINDOW: Final = 40.0
+"""s of readings kept and fitted."""
+MIN_SPAN: Final = 10.0
+"""s the track must span."""
+MIN_TRAVEL: Final = 15.0
+"""m the track must cover: a still vehicle's track turns any way."""
+MIN_RANGES: Final = 15
+MIN_BEACONS: Final = 3
+STARTS: Final = 8
+"""Turns the fits start from, evenly round the circle."""
+MIN_TURN: Final = math.radians(30.0)
+"""rad: a bias error under this is the bias state's to learn; fits whose turns differ by
+less are one answer."""
+RATIO: Final = 4.0
+"""How many times better the best fit must be than the best of any other answer."""
+MAX_CHI2: Final = 2.0
+"""The best fit's robust χ² per degree of freedom at most (the ranges' σ as the filter
+weighs them): a track of the wrong shape (a stuck sensor's, the vehicle turning) fits no
+turn well (Plaza1, heading wandering and stuck: 5.0-5.7, a sensor turned round 0.3)."""
+
+
+def _wrap(a: float) -> float:
+    return math.remainder(a, 2 * math.pi)
+
+
+@dataclass(frozen=True)
+class RangeHeading:
+    """The sensor reads ``bias`` (rad, yaw) off the true heading; the fit puts the vehicle at
+    (``x``, ``y``) to 1-σ ``sigma`` (m) at time ``t``, moving at ``velocity`` (east, north,
+    m/s). ``chi2`` is the best fit's, ``chi2_other`` the best of the fits that turned the
+    track ``MIN_TURN`` or more from it."""
+
+    t: float
+    bias: float
+    x: float
+    y: float
+    sigma: float
+    velocity: tuple[float, float]
+    chi2: float
+    chi2_other: float
+
+
+class RangeAlignment:
+    """``add_heading``, ``add_body_velocity`` and ``add_range`` as readings come (in time
+    order); ``estimate`` when the owner doubts the heading."""
+
+    def __init__(self, beacons: dict[str, Beacon]) -> None:
+        self.beacons = beacons
+        self._headings: deque[tuple[float, float]] = deque()
+        self._velocities: deque[tuple[float, float, float]] = deque()
+        self._ranges: deque[tuple[float, str, float, float, float]] = deque()
+
+    def clear(self) -> None:
+        self._headings.clear()
+        self._velocities.clear()
+        self._ranges.clear()
+
+    def add_heading(self, t: float, yaw: float) -> None:
+        """A raw reading of the orientation sensor (rad, yaw = −heading)."""
+        _keep(self._headings, (t, yaw))
+
+    def add_body_velocity(self, t: float, forward: float, starboard: float | None) -> None:
+        _keep(self._velocities, (t, forward, starboard or 0.0))
+
+    def add_range(self, t: float, beacon: str, z: float, sigma: float,
+                  height: float = 0.0) -> None:
+        """A range (m, its σ) heard ``height`` m above the origin, accepted by the filter
+        or not."""
+        if beacon in self.beacons and math.isfinite(z):
+            _keep(self._ranges, (t, beacon, z, sigma, height))
+
+    def estimate(self, t: float, near: tuple[float, float]) -> RangeHeading | None:
+        """The sensor's bias and the position from the window's fits; None where the track
+        or the ranges are too few, the best fit is poor, or another turn fits nearly as
+        well. ``near`` is a position guess for now (m)."""
+        track = self._track()
+        if track is None:
+            return None
+        times, east, north = track
+        ranges = [r for r in self._ranges if times[0] <= r[0] <= times[-1]]
+        if len(ranges) < MIN_RANGES or len({r[1] for r in ranges}) < MIN_BEACONS:
+            return None
+        rt = np.array([r[0] for r in ranges])
+        ex, ey = np.interp(rt, times, east), np.interp(rt, times, north)
+        columns = np.array([(z - self.beacons[b].offset, sd, self.beacons[b].x,
+                             self.beacons[b].y, (self.beacons[b].z - h) ** 2, 0.0, 0.0)
+                            for _, b, z, sd, h in ranges])
+        columns[:, 5], columns[:, 6] = ex - ex[0], ey - ey[0]
+        now = (float(east[-1] - ex[0]), float(north[-1] - ey[0]))
+        kept = np.ones((1, len(ranges)), dtype=bool)
+        found = []
+        for k in range(STARTS):
+            turn = 2 * math.pi * k / STARTS
+            c, s = math.cos(turn), math.sin(turn)
+            start = (near[0] - (c * now[0] - s * now[1]), near[1] - (s * now[0] + c * now[1]))
+            try:
+                fits, p = fit_tracks(columns, kept, start, now, float(times[-1]),
+                                     np.array([[turn, 0.0, 0.0, 0.0]]))
+            except np.linalg.LinAlgError:
+                continue
+            if math.isfinite(fits[0].chi2):
+                found.append((fits[0], float(p[0, 2]), float(p[0, 3])))
+        if not found:
+            return None
+        best, turn, stretch = min(found, key=lambda f: f[0].chi2)
+        others = [f[0].chi2 for f in found if abs(_wrap(f[1] - turn)) >= MIN_TURN]
+        chi2_other = min(others, default=math.inf)
+        if best.chi2 > MAX_CHI2 or chi2_other < RATIO * best.chi2:
+            return None
+        c, s = math.cos(turn), math.sin(turn)
+        vx, vy = self._velocity()
+        velocity = ((1 + stretch) * (c * vx - s * vy), (1 + stretch) * (s * vx + c * vy))
+        return RangeHeading(best.t, _wrap(-turn), best.x, best.y, best.sigma, velocity,
+                            best.chi2, chi2_other)  # the true yaw: the reading turned
+
+    def _track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The body velocity turned by the sensor's heading, integrated over the window:
+        times, east and north (m); None when it spans too little time or ground."""
+        if len(self._velocities) < 2 or not self._headings:
+            return None
+        v = np.array(self._velocities)
+        h = np.array(self._headings)
+        if v[-1, 0] - v[0, 0] < MIN_SPAN:
+            return None
+        # the heading at each body velocity: the latest reading at or before it
+        at = np.clip(np.searchsorted(h[:, 0], v[:, 0], side="right") - 1, 0, len(h) - 1)
+        yaw = h[at, 1]
+        s, c = np.sin(yaw), np.cos(yaw)
+        east = -v[:, 1] * s + v[:, 2] * c
+        north = v[:, 1] * c + v[:, 2] * s
+        dt = np.diff(v[:, 0])
+        east = np.concatenate([[0.0], np.cumsum(east[:-1] * dt)])
+        north = np.concatenate([[0.0], np.cumsum(north[:-1] * dt)])
+        if float(np.sum(np.abs(v[:-1, 1]) * dt)) < MIN_TRAVEL:
+            return None
+        return v[:, 0], east, north
+
+    def _velocity(self) -> tuple[float, float]:
+        """The latest body velocity turned by the latest heading (east, north, m/s)."""
+        _, forward, starboard = self._velocities[-1]
+        yaw = self._headings[-1][1]
+        s, c = math.sin(yaw), math.cos(yaw)
+        return -forward * s + starboard * c, forward * c + starboard * s
+
+
+def _keep(queue: deque, item: tuple) -> None:
+    """Append a reading, forgetting those older than ``WINDOW`` before it."""
+    queue.append(item)
+    while queue[0][0] < item[0] - WINDOW:
+        queue.popleft()
