@@ -555,11 +555,12 @@ class Fusion:
 
     def _align_from_ranges(self, t: float) -> None:
         """While in doubt, a heading far out taken from the ranges
-        (:mod:`mavhelm.nav.range_alignment`): the filter starts again where the ranges put
-        the vehicle, its heading turned onto the one they fit."""
+        (:mod:`mavhelm.nav.range_alignment`): the heading turned onto the one they fit, and
+        beyond ``ALIGN_RESET`` the filter started again where they put the vehicle."""
         until, next_at = self._range_doubt
         ekf = self.ekf
-        if ekf is None or t > until or t < next_at or not self._heading_coupled:
+        if (ekf is None or t > until or t < next_at or not self._heading_coupled
+                or not self.config.beacons):
             return
         if t - self._contradicted_at < RANGE_WINDOW:
             return  # the window's track bends where a kicked or stuck sensor was refused
