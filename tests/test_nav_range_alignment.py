@@ -48,7 +48,7 @@ def _drive(offset_deg: float, beacons: dict[str, Beacon] = BEACONS, speed: float
 @pytest.mark.parametrize("offset_deg", [180.0, 120.0, -90.0, 60.0])
 def test_a_sensor_far_off_is_told_by_the_ranges_with_the_position(offset_deg) -> None:
     a, (x, y) = _drive(offset_deg)
-    found = a.estimate(WINDOW, (x + 3.0, y + 4.0))
+    found = a.estimate((x + 3.0, y + 4.0))
     assert found is not None
     # yaw = −heading: a sensor reading clockwise of the truth has a negative yaw bias
     error = math.degrees(math.remainder(found.bias + math.radians(offset_deg), 2 * math.pi))
@@ -60,7 +60,7 @@ def test_a_sensor_far_off_is_told_by_the_ranges_with_the_position(offset_deg) ->
 
 def test_a_guess_tens_of_metres_off_still_finds_it() -> None:
     a, (x, y) = _drive(180.0)
-    found = a.estimate(WINDOW, (x - 30.0, y + 25.0))
+    found = a.estimate((x - 30.0, y + 25.0))
     assert found is not None and math.hypot(found.x - x, found.y - y) < 2.0
 
 
@@ -68,7 +68,7 @@ def test_a_sensor_a_few_degrees_off_is_told_as_such() -> None:
     """The answer does not depend on the filter: the owner leaves a small one to the bias
     state."""
     a, (x, y) = _drive(10.0)
-    found = a.estimate(WINDOW, (x, y))
+    found = a.estimate((x, y))
     assert found is not None
     assert math.degrees(found.bias) == pytest.approx(-10.0, abs=5.0)
     assert found.chi2_other >= 4.0 * found.chi2
@@ -76,17 +76,17 @@ def test_a_sensor_a_few_degrees_off_is_told_as_such() -> None:
 
 def test_nothing_from_a_still_vehicle_a_short_track_or_two_beacons() -> None:
     a, (x, y) = _drive(180.0, speed=0.0)
-    assert a.estimate(WINDOW, (x, y)) is None
+    assert a.estimate((x, y)) is None
     a, (x, y) = _drive(180.0, seconds=MIN_SPAN - 2.0)
-    assert a.estimate(MIN_SPAN - 2.0, (x, y)) is None
+    assert a.estimate((x, y)) is None
     two = {name: BEACONS[name] for name in ("0", "1")}
     a, (x, y) = _drive(180.0, beacons=two)
-    assert a.estimate(WINDOW, (x, y)) is None
+    assert a.estimate((x, y)) is None
 
 
 def test_old_readings_are_forgotten_and_clear_empties_it() -> None:
     a, (x, y) = _drive(180.0, seconds=3 * WINDOW)
-    assert a.estimate(3 * WINDOW, (x, y)) is not None
+    assert a.estimate((x, y)) is not None
     assert all(t >= 2 * WINDOW for t, _ in a._headings)
     a.clear()
-    assert a.estimate(3 * WINDOW, (x, y)) is None
+    assert a.estimate((x, y)) is None

@@ -567,7 +567,7 @@ class Fusion:
         self._range_doubt = (until, t + RANGE_CHECK_EVERY)
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
-        found = self.range_alignment.estimate(t, near)
+        found = self.range_alignment.estimate(near)
         last, self._range_heading = self._range_heading, found
         if (found is None or last is None or found.t - last.t > 2 * RANGE_CHECK_EVERY
                 or abs(math.remainder(found.bias - last.bias, 2 * math.pi)) > MAX_SPREAD):

@@ -37,7 +37,7 @@ from typing import Final
 
 import numpy as np
 
-from mavhelm.nav.ekf import Beacon
+from mavhelm.nav.ekf import Beacon, wrap_angle
 from mavhelm.nav.survey_check import fit_tracks
 
 WINDOW: Final = 40.0
@@ -59,10 +59,6 @@ MAX_CHI2: Final = 2.0
 """The best fit's robust χ² per degree of freedom at most (the ranges' σ as the filter
 weighs them): a track of the wrong shape (a stuck sensor's, the vehicle turning) fits no
 turn well (Plaza1, heading wandering and stuck: 5.0-5.7, a sensor turned round 0.3)."""
-
-
-def _wrap(a: float) -> float:
-    return math.remainder(a, 2 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -111,7 +107,7 @@ class RangeAlignment:
         if beacon in self.beacons and math.isfinite(z):
             _keep(self._ranges, (t, beacon, z, sigma, height))
 
-    def estimate(self, t: float, near: tuple[float, float]) -> RangeHeading | None:
+    def estimate(self, near: tuple[float, float]) -> RangeHeading | None:
         """The sensor's bias and the position from the window's fits; None where the track
         or the ranges are too few, the best fit is poor, or another turn fits nearly as
         well. ``near`` is a position guess for now (m)."""
@@ -145,14 +141,14 @@ class RangeAlignment:
         if not found:
             return None
         best, turn, stretch = min(found, key=lambda f: f[0].chi2)
-        others = [f[0].chi2 for f in found if abs(_wrap(f[1] - turn)) >= MIN_TURN]
+        others = [f[0].chi2 for f in found if abs(wrap_angle(f[1] - turn)) >= MIN_TURN]
         chi2_other = min(others, default=math.inf)
         if best.chi2 > MAX_CHI2 or chi2_other < RATIO * best.chi2:
             return None
         c, s = math.cos(turn), math.sin(turn)
         vx, vy = self._velocity()
         velocity = ((1 + stretch) * (c * vx - s * vy), (1 + stretch) * (s * vx + c * vy))
-        return RangeHeading(best.t, _wrap(-turn), best.x, best.y, best.sigma, velocity,
+        return RangeHeading(best.t, wrap_angle(-turn), best.x, best.y, best.sigma, velocity,
                             best.chi2, chi2_other)  # the true yaw: the reading turned
 
     def _track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
