@@ -222,7 +222,9 @@ def test_a_bad_range_at_the_boot_does_not_lock_a_beacon_out_for_good() -> None:
 
     beacons = (Beacon("1", 0.0, 0.0), Beacon("2", 100.0, 0.0), Beacon("3", 0.0, 100.0),
                Beacon("4", 100.0, 100.0))
-    fusion = Fusion(FusionConfig(ekf=EKFConfig(estimate_range_scale=False), beacons=beacons,
+    # a net whose shared delay is uncertain by metres (an acoustic one, say)
+    config = EKFConfig(estimate_range_scale=False, sigma_beacon_offset=5.0)
+    fusion = Fusion(FusionConfig(ekf=config, beacons=beacons,
                                  start=Start(33.0, 44.0, sigma_xy=5.0), lsq_timeout=None))
     ranger = SensorSpec("RANGE", "R", "ranger")
     rng = np.random.default_rng(1)

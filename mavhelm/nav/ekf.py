@@ -267,7 +267,13 @@ class EKFConfig:
       is each offset's random walk (m/√s). When false the offsets are held at their priors.
       Why a shared part: left each free by metres, a beacon's offset absorbs a bad range
       heard early, or part of a beacon's survey error, and the position drifts with it;
-      Plaza1's four UWB offsets, learned, lie within 0.2 m of each other.
+      Plaza1's four UWB offsets, learned, lie within 0.2 m of each other. Why the shared
+      delay's σ is 1 m and not the metres a net could have: from a still vehicle, four
+      ranges fit a position, a range scale and a free shared delay exactly, so a beacon off
+      its survey by 5 m moved the whole fix by 4–5 m, a shared delay of 6 m absorbing the
+      rest (Plaza1 with beacon 0 moved 5 m, over twelve directions: worst 1.15 m RMS with
+      5 m, 0.83 m with 1 m; clean 0.36 → 0.33 m). A net's real shared delay of several
+      metres is still learned once the vehicle moves (every range 6 m long: 0.34 → 0.56 m).
     - ``gate_probability`` (EKF_GATE): χ² acceptance probability of the data rejection
       (0.999: a lone observation is refused beyond 3.3 σ).
     - ``max_speed`` (m/s, EKF_MAX_SPEED), ``max_yaw_rate`` (rad/s): rate states beyond these
@@ -315,7 +321,7 @@ class EKFConfig:
     sigma_range_scale: float = 0.1
     range_scale_noise: float = 1e-5
     learn_beacon_offsets: bool = setting(EKF_BEACON_OFFSETS)
-    sigma_beacon_offset: float = 5.0
+    sigma_beacon_offset: float = 1.0
     sigma_offset_spread: float = 0.5
     beacon_offset_noise: float = 1e-3
     gate_probability: float = setting(EKF_GATE)
