@@ -201,7 +201,8 @@ def test_a_heading_turned_round_is_taken_from_the_ranges(plaza) -> None:
     2.8 / 2.2 m, then 3.46 / 1.59 m once ranges refused to two beacons in a row widened the
     filter and delayed the runs' agreement to 124 s). The dead-reckoned track turned to fit
     the ranges (:mod:`mavhelm.nav.range_alignment`) tells it sooner: 1.26 m (p95 0.85 m),
-    135° 0.78 m."""
+    135° 0.78 m; with the shared range delay's prior σ 1 m rather than 5 m, 1.10 m (p95
+    0.82 m), 135° 0.79 m."""
     _run, (block, messages) = plaza
     for offset in (180.0,):
         turned = [m._replace(value=(m.double + offset) % 360.0) if m.name == "ODOM_HEADING"
