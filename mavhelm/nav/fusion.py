@@ -464,16 +464,19 @@ class Fusion:
         alignment, ekf = self.alignment, self.ekf
         bias = float(ekf.x[ekf.i_bias, 0]) if ekf is not None and ekf.i_bias is not None else 0.0
         held = ekf.x.item(I_H) if ekf is not None else None
-        ranges = self.range_alignment
+        # without beacons the ranges are never asked (``_align_from_ranges``): not fed
+        ranges = self.range_alignment if self.range_alignment.beacons else None
         for r in kept:
             obs = r.obs
             if isinstance(obs, Yaw):
                 alignment.add_heading(obs.t, obs.z, bias, held)
-                ranges.add_heading(obs.t, obs.z)
+                if ranges is not None:
+                    ranges.add_heading(obs.t, obs.z)
             elif isinstance(obs, BodyVelocity) and obs.forward is not None:
                 alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
-                ranges.add_body_velocity(obs.t, obs.forward, obs.starboard)
-            elif isinstance(obs, Range) and ekf is not None:
+                if ranges is not None:
+                    ranges.add_body_velocity(obs.t, obs.forward, obs.starboard)
+            elif isinstance(obs, Range) and ranges is not None and ekf is not None:
                 height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + obs.lever[2]
                 weighed = self._weighted(obs, r.sensor.name)  # its σ as the filter weighs it
                 sigma = weighed.sigma if isinstance(weighed, Range) else obs.sigma
