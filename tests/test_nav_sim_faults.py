@@ -14,7 +14,7 @@ a beacon 5 m from its surveyed place 0.57 (0.84 m, NEES 20, before the beacon wa
 the GPS as declared, σ 2 m, the 0.8 m it was off was no disagreement at all; the beacon's
 learned range offset, unlike the other beacons', is), 0.48 m with the beacons' shared delay's
 prior σ 1 m instead of 5 m (the beacon found at 52 s instead of 70 s; the other variants
-0.28-0.30 m either way)."""
+0.28-0.31 m either way)."""
 
 from __future__ import annotations
 
