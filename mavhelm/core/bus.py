@@ -62,7 +62,7 @@ class Bus:
     def notify(
         self, name: str, value: float | str, source: str, time: float | None = None
     ) -> Message:
-        if not isinstance(value, str):
+        if type(value) is not float and not isinstance(value, str):  # a float as it is
             value = float(value)
         msg = Message(name, value, self.clock.now() if time is None else time, source)
         self._latest[name] = msg

@@ -855,8 +855,8 @@ class EKF:
                 self._q_dt = dt
                 self._q_block = white_noise_block(dt)
                 pp, pv, _, vv = self._q_block
-                self._q_dense = np.zeros((self.dim, self.dim))
-                self._q_dense.reshape(-1)[self._q_cells] = np.dot(np.array((pp, pv, vv, dt)),
+                # Q's cells are the same at every step: rewritten in place, its zeros kept
+                self._q_dense.reshape(-1)[self._q_cells] = np.dot((pp, pv, vv, dt),
                                                                    self._q_blocks)
             # Q added whole: its zero cells leave P's as they are (x + 0 = x), one call
             # instead of an indexed read-add-write

@@ -464,8 +464,13 @@ class Navigator(App):
         if ekf is not None and ekf.i_bias is not None:
             values["EKF_YAW_BIAS"] = e.yaw_bias
         self._std["EKF"] = (e.sigma_x, e.sigma_y)
+        # _offer for each, posted on the bus directly: a dozen values every tick
+        post, inputs, t = self.bus.notify, self._inputs, e.t
         for name, value in values.items():
-            self._offer(name, value, e.t, now)
+            if math.isfinite(value):
+                post(name, value, self.name, t)
+                if name in inputs:
+                    self._route(name, value, t, now)
 
     def _announce(self, key: str, source: str | None) -> None:
         name = NO_SOURCE if source is None else source
