@@ -244,6 +244,7 @@ def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float]
     p[:, 0], p[:, 1] = start
     p[:, 2:] = shape
     prior = np.array([0.0 if math.isinf(v) else 1.0 / v**2 for v in PRIOR_SIGMA])
+    offset_column = np.broadcast_to(1.0 / sd, kept.shape)  # the offset's: the same each step
 
     def residuals(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Normalised residuals (fit, range) and their Jacobian (fit, range, parameter)."""
@@ -255,7 +256,7 @@ def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float]
         distance = np.sqrt(dx**2 + dy**2 + bz2) + 1e-9
         ux, uy = scale * dx / distance / sd, scale * dy / distance / sd
         jacobian = np.stack([ux, uy, stretch * (uy * rx - ux * ry), ux * rx + uy * ry,
-                             distance / sd, np.broadcast_to(1.0 / sd, ux.shape)], axis=2)
+                             distance / sd, offset_column], axis=2)
         return (z - scale * distance - p[:, 5:6]) / sd, jacobian
 
     normal = np.zeros((len(kept), 6, 6))
