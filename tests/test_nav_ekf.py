@@ -490,3 +490,22 @@ def test_accuracy_interpolates_truth_in_time() -> None:
                    truth_t, truth_x, truth_y)
     assert acc.n == 2  # t = 20 is outside the truth
     assert acc.rms == pytest.approx(math.sqrt(0.5)) and acc.max == pytest.approx(1.0)
+
+
+def test_forget_turn_takes_the_heading_and_rate_back_to_their_priors() -> None:
+    """What a reversed yaw rate taught (:mod:`mavhelm.nav.rate_sense`): the rate and its
+    scale back at their priors, the heading the sensor's less its bias, each uncorrelated."""
+    cfg = EKFConfig(estimate_yaw_bias=True, estimate_yaw_scale=True)
+    ekf = EKF(0.0, 0.0, 0.0, config=cfg)
+    for k in range(1, 30):  # a fight: a heading turning left, a rate saying right
+        ekf.advance(0.2 * k)
+        ekf.update([Yaw(0.2 * k, 0.05 * k), BodyVelocity(0.2 * k, 1.0, 0.0, -0.25)])
+    assert abs(ekf.x[I_VH, 0]) > 0.01 and ekf.P[I_H, I_VH] != 0.0
+    ekf.forget_turn(1.0)
+    assert ekf.x[I_VH, 0] == 0.0 and ekf.x[I_H, 0] == pytest.approx(1.0)
+    assert ekf.x[ekf.i_yaw_scale, 0] == 0.0
+    for i, sigma in ((I_VH, cfg.sigma_yaw_rate), (I_H, cfg.sigma_yaw),
+                     (ekf.i_yaw_scale, cfg.sigma_yaw_scale)):
+        assert ekf.P[i, i] == pytest.approx(sigma**2)
+        assert np.count_nonzero(ekf.P[i]) == 1
+    np.linalg.cholesky(ekf.P)  # still positive definite

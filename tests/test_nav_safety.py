@@ -166,9 +166,10 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
     assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_jumps",
                            "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
-                           "gps_glitches"}
+                           "gps_glitches", "yaw_rate_reversed"}
     for name in FAULTS:
-        assert applies(name, LAYOUT) is (name != "heading_scale")  # no odometer's heading
+        # no odometer's heading, no body velocity sensor
+        assert applies(name, LAYOUT) is (name not in ("heading_scale", "yaw_rate_reversed"))
         assert with_fault(name, log, LAYOUT, seed=7) == with_fault(name, log, LAYOUT, seed=7)
     wander = [m.double for m in with_fault("heading_wander", log, LAYOUT)
               if m.name == "C_HEADING"]
@@ -188,6 +189,19 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     with pytest.raises(ValueError, match="unknown or repeated fault"):
         with_fault("nothing", log, LAYOUT)
     assert not applies("ranges_gap", Layout(("C",), (), ("G",), ()))
+
+
+def test_a_reversed_yaw_rate_is_every_body_velocity_sensors_rate_negated() -> None:
+    log = [Message(name, value, float(k), "log") for k in range(10)
+           for name, value in (("C_HEADING", 90.0), ("D_YAW_VEL", 0.1 * k),
+                               ("D_VX_BODY", 1.0))]
+    layout = Layout(("C",), (), (), (), ("D",))
+    assert applies("yaw_rate_reversed", layout)
+    reversed_ = with_fault("yaw_rate_reversed", log, layout)
+    assert [m.double for m in reversed_ if m.name == "D_YAW_VEL"] == [
+        -0.1 * k for k in range(10)]
+    assert ([m for m in reversed_ if m.name != "D_YAW_VEL"]
+            == [m for m in log if m.name != "D_YAW_VEL"])
 
 
 def test_faults_joined_are_made_on_one_log_together() -> None:

@@ -1190,6 +1190,20 @@ class EKF:
         if self.i_bias is not None and wander > self.config.yaw_bias_noise:
             self._wander = (wander**2 - self.config.yaw_bias_noise**2, until)
 
+    def forget_turn(self, yaw: float | None) -> None:
+        """What a yaw rate of the wrong sign taught, forgotten (:mod:`mavhelm.nav.rate_sense`;
+        also when it is found agreeing again, as what the negated one taught is as wrong):
+        the yaw rate back to zero and the yaw rate's scale to none, at their priors; with
+        ``yaw`` (rad: the heading sensor's latest reading less its bias) the heading taken
+        from it at the start's 1-σ. Each uncorrelated with the rest: P stays positive
+        definite."""
+        cfg = self.config
+        self._reset_states((I_VH,), (0.0,), cfg.sigma_yaw_rate**2)
+        if self.i_yaw_scale is not None:
+            self._reset_states((self.i_yaw_scale,), (0.0,), cfg.sigma_yaw_scale**2)
+        if yaw is not None and math.isfinite(yaw):
+            self._reset_states((I_H,), (wrap_angle(yaw),), cfg.sigma_yaw**2)
+
     def reset_yaw_bias(self, bias: float, sigma_yaw: float) -> None:
         """The heading bias set to ``bias`` (the sensor's offset from the heading, rad) at
         1-σ ``sigma_yaw``, its drift rate to zero at its prior; both uncorrelated with the

@@ -5,24 +5,26 @@ gone wrong, deterministically (a seeded generator): what the navigator then does
 (:func:`mavhelm.nav.replay.replay`) and scored against the recording's truth. The faults are
 those real vehicles meet:
 
-==================  ==========================================================================
-``heading_wander``  the orientation sensor's bias wanders, a smooth random walk reaching 180°
-                    over the run (a compass by a moving load)
-``heading_drift``   an odometry-integrated heading: its error drifts 180° within five minutes
-                    (a random walk of its rate) and the same instrument's yaw rate carries that
-                    rate
-``heading_scale``   an odometry-integrated heading whose yaw rate is 3–8 % off, as the same
-                    instrument's yaw rate: its error grows with each turn, not with time
-                    (an odometer's wheel base); only where one source gives both
-``heading_jumps``   the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
-                    compass near a motor)
-``heading_stuck``   the heading holds one value for five minutes (a frozen AHRS)
-``ranges_gap``      60 s without any beacon range
-``beacon_moved``    one beacon is 5 m from its surveyed position (its ranges say so)
-``range_outliers``  5 % of the ranges wrong by 5–50 m (multipath, a second reply)
-``gps_glitches``    the position sensor with 2 m of noise, and 30–60 m glitches of 5 s every
-                    two minutes
-==================  ==========================================================================
+=====================  =======================================================================
+``heading_wander``     the orientation sensor's bias wanders, a smooth random walk reaching 180°
+                       over the run (a compass by a moving load)
+``heading_drift``      an odometry-integrated heading: its error drifts 180° within five minutes
+                       (a random walk of its rate) and the same instrument's yaw rate carries that
+                       rate
+``heading_scale``      an odometry-integrated heading whose yaw rate is 3–8 % off, as the same
+                       instrument's yaw rate: its error grows with each turn, not with time
+                       (an odometer's wheel base); only where one source gives both
+``heading_jumps``      the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
+                       compass near a motor)
+``heading_stuck``      the heading holds one value for five minutes (a frozen AHRS)
+``ranges_gap``         60 s without any beacon range
+``beacon_moved``       one beacon is 5 m from its surveyed position (its ranges say so)
+``range_outliers``     5 % of the ranges wrong by 5–50 m (multipath, a second reply)
+``gps_glitches``       the position sensor with 2 m of noise, and 30–60 m glitches of 5 s every
+                       two minutes
+``yaw_rate_reversed``  the body velocity sensors' yaw rate of the wrong sign (a gyro mounted
+                       upside down, a rate logged clockwise-positive)
+=====================  =======================================================================
 
 Faults join with ``+`` to be made on one log together (``heading_wander+heading_jumps``).
 A fault that finds nothing to act on (no ranges, no position sensor) leaves the log as it was
@@ -242,6 +244,12 @@ def gps_glitches(messages: list[Message], layout: Layout,
     return out
 
 
+def yaw_rate_reversed(messages: list[Message], layout: Layout,
+                      rng: np.random.Generator) -> list[Message]:
+    return [m._replace(value=-m.double) if _is(m, layout.body_velocity, "YAW_VEL") else m
+            for m in messages]
+
+
 def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     xs = {m.time: m.double for m in messages if m.name == TRUTH[0] and m.is_double}
     ys = {m.time: m.double for m in messages if m.name == TRUTH[1] and m.is_double}
@@ -259,6 +267,7 @@ FAULTS: dict[str, FaultMaker] = {
     "beacon_moved": beacon_moved,
     "range_outliers": range_outliers,
     "gps_glitches": gps_glitches,
+    "yaw_rate_reversed": yaw_rate_reversed,
 }
 """Every fault by name, in the order a report lists them."""
 
@@ -289,6 +298,8 @@ def _applies(name: str, layout: Layout) -> bool:
         return bool(layout.ranging)
     if name == "beacon_moved":
         return bool(layout.ranging and layout.beacons)
+    if name == "yaw_rate_reversed":
+        return bool(layout.body_velocity)
     return bool(layout.position)
 
 

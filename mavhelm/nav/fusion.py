@@ -82,6 +82,7 @@ from mavhelm.nav.noise_match import NoiseMatch
 from mavhelm.nav.range_alignment import MIN_TURN as RANGE_MIN_TURN
 from mavhelm.nav.range_alignment import WINDOW as RANGE_WINDOW
 from mavhelm.nav.range_alignment import RangeAlignment, RangeHeading
+from mavhelm.nav.rate_sense import RateSense
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
     BEACON,
@@ -227,6 +228,9 @@ class Fusion:
         """The filter's settings, those of every boot: ``config.ekf``, with a heading-bias state
         once one was added (:meth:`_add_yaw_bias`)."""
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
+        self.rate_sense = RateSense()
+        """The body velocity sensors' yaw rates voted against the headings' turns: a rate of
+        the wrong sense is negated (:mod:`mavhelm.nav.rate_sense`)."""
         self._heading_coupled = config.fixed_sideslip is not None
         """Whether the heading moves the position (a sideslip constraint, a body velocity with
         a speed): then the motion can tell a heading bias from a heading."""
@@ -410,6 +414,7 @@ class Fusion:
         t, x, y, yaw = e.t, e.x, e.y, e.yaw
         vx, vy, w = e.x_vel, e.y_vel, e.yaw_vel
         body: tuple[float, float] | None = None
+        reversed_ = self.rate_sense.reversed
         for ti, _, reading in newer:
             dt = ti - t
             if dt > 0:
@@ -419,7 +424,7 @@ class Fusion:
                 yaw = obs.z - e.yaw_bias
             elif isinstance(obs, BodyVelocity):
                 if obs.yaw_rate is not None:
-                    w = obs.yaw_rate
+                    w = -obs.yaw_rate if _rate_label(reading) in reversed_ else obs.yaw_rate
                 if obs.forward is not None:
                     body = (obs.forward, obs.starboard or 0.0)
             else:
@@ -438,6 +443,7 @@ class Fusion:
         for r in kept:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
+        kept = self._sensed(t, kept)
         fixes = self._feed_lsq(kept)
         self._feed_alignment(kept, fixes)
         if self.ekf is not None:
@@ -458,6 +464,28 @@ class Fusion:
             self._update(t, kept)
         self._align(t)
         self._align_from_ranges(t)
+
+    def _sensed(self, t: float, kept: list[Reading]) -> list[Reading]:
+        """The slice's yaw rates and headings voted (:mod:`mavhelm.nav.rate_sense`); the
+        readings with each reversed rate negated."""
+        sense = self.rate_sense
+        for r in kept:
+            obs = r.obs
+            if isinstance(obs, BodyVelocity) and obs.yaw_rate is not None:
+                sense.rate(_rate_label(r), obs.t, obs.yaw_rate)
+            elif isinstance(obs, Yaw):
+                for verdict in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
+                                             obs.z):
+                    self._decide(Decision(t, HEADING, str(verdict)))
+                    ekf = self.ekf
+                    if ekf is not None:  # what the rate taught, read either way, forgotten
+                        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+                        ekf.forget_turn(obs.z - bias)
+        if not sense.reversed:
+            return kept
+        return [dataclasses.replace(r, obs=dataclasses.replace(r.obs, yaw_rate=-r.obs.yaw_rate))
+                if isinstance(r.obs, BodyVelocity) and r.obs.yaw_rate is not None
+                and _rate_label(r) in sense.reversed else r for r in kept]
 
     def _feed_alignment(self, kept: list[Reading], fixes: list[Fix]) -> None:
         """Headings, astern runs, then the slice's fixes (the LSQ's, else an XY sensor's)."""
@@ -948,3 +976,8 @@ def _has_speed(obs: Observation) -> bool:
 def _channel(obs: Range | Position, sensor: str) -> tuple[str, str]:
     """What a noise scale is kept for: a sensor, and for ranges each beacon of it."""
     return (sensor, obs.beacon if isinstance(obs, Range) else "")
+
+
+def _rate_label(r: Reading) -> str:
+    """A body velocity sensor's yaw rate as the operator knows it: its name and variable."""
+    return f"{r.sensor.source}_YAW_VEL (sensor {r.sensor.name})"

@@ -1,0 +1,71 @@
+"""A yaw rate of the wrong sign is told from the headings' turns, and only then
+(:mod:`mavhelm.nav.rate_sense`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mavhelm.nav.rate_sense import CONTRARY, VOTES, RateSense
+
+
+def _weave(seconds: float, rate_sign: float = 1.0, bias=lambda t: 0.0, hold=None,
+           sense: RateSense | None = None, t0: float = 0.0):
+    """A vehicle weaving (yaw 40° sin(t/8)), a heading and a yaw rate each 5 Hz: the rate
+    times ``rate_sign``, the heading plus ``bias(t)`` (rad), held at its value while
+    ``hold(t)``. Returns the sense and its verdicts as (t, verdict)."""
+    sense = sense or RateSense()
+    verdicts = []
+    held = None
+    for t in np.arange(t0, t0 + seconds, 0.2):
+        yaw = math.radians(40.0) * math.sin(t / 8.0)
+        rate = math.radians(40.0) / 8.0 * math.cos(t / 8.0)
+        sense.rate("gyro", t, rate_sign * rate)
+        heading = math.remainder(yaw + bias(t), 2 * math.pi)
+        if hold is not None and hold(t):
+            held = heading if held is None else held
+            heading = held
+        else:
+            held = None
+        verdicts += [(t, v) for v in sense.heading("compass", t, heading)]
+    return sense, verdicts
+
+
+def test_a_rate_of_the_right_sign_is_never_found_reversed() -> None:
+    sense, verdicts = _weave(600.0)
+    assert not verdicts and not sense.reversed
+
+
+def test_a_reversed_rate_is_found_once_enough_turns_vote_and_dropped_when_it_agrees() -> None:
+    sense, verdicts = _weave(120.0, rate_sign=-1.0)
+    assert len(verdicts) == 1 and sense.reversed == {"gyro"}
+    t, verdict = verdicts[0]
+    assert verdict.reversed and verdict.against >= CONTRARY * VOTES
+    assert "gyro" in str(verdict) and "compass" in str(verdict) and "negated" in str(verdict)
+    assert t < 30.0  # the first clear turns: the weave turns at up to 5°/s
+    sense, back = _weave(120.0, sense=sense, t0=120.0)
+    assert [v.reversed for _, v in back] == [False] and not sense.reversed
+    assert "again" in str(back[0][1])
+
+
+def test_a_heading_wandering_fast_jumping_or_stuck_does_not_reverse_a_good_rate() -> None:
+    """A bias sweeping 180° in three minutes (1°/s), 60° jumps for 10 s every minute, the
+    heading stuck for two minutes: the rate is still the right one."""
+    _, wander = _weave(900.0, bias=lambda t: math.radians(t))
+    _, jumps = _weave(900.0, bias=lambda t: math.radians(60.0) if t % 60.0 < 10.0 else 0.0)
+    sense, stuck = _weave(900.0, hold=lambda t: 100.0 <= t < 220.0)
+    assert not wander and not jumps and not stuck and not sense.reversed
+
+
+def test_a_still_vehicle_or_a_gap_in_the_headings_gives_no_votes() -> None:
+    sense = RateSense()
+    for k in range(200):
+        t = 0.2 * k
+        sense.rate("gyro", t, -0.001 * math.sin(t))  # noise about a still vehicle
+        assert not sense.heading("compass", t, 0.002 * math.sin(3 * t))
+    for k in range(40):  # headings 3 s apart, turning the other way: too far apart to compare
+        t = 40.0 + 3.0 * k
+        sense.rate("gyro", t, 0.2)
+        assert not sense.heading("compass", t, math.remainder(-0.2 * (t - 40.0), 2 * math.pi))
+    assert not sense.reversed
