@@ -69,3 +69,15 @@ def test_a_still_vehicle_or_a_gap_in_the_headings_gives_no_votes() -> None:
         sense.rate("gyro", t, 0.2)
         assert not sense.heading("compass", t, math.remainder(-0.2 * (t - 40.0), 2 * math.pi))
     assert not sense.reversed
+
+
+def test_a_rate_gone_silent_is_not_held_into_the_turns_that_follow() -> None:
+    """A gyro that stops while turning left at 5°/s: the headings then turning right are
+    not set against the rate it last read."""
+    sense = RateSense()
+    sense.rate("gyro", 0.0, math.radians(5.0))
+    for k in range(1, 200):
+        t = 0.2 * k
+        assert not sense.heading("compass", t, math.remainder(-math.radians(5.0) * t,
+                                                               2 * math.pi))
+    assert not sense.reversed

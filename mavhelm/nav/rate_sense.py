@@ -44,7 +44,8 @@ vehicle's noise)."""
 MIN_STEP: Final = math.radians(0.5)
 """rad: the heading must turn at least this much between two readings to vote."""
 MAX_GAP: Final = 2.0
-"""s: headings further apart than this (a gap in the data) are not compared."""
+"""s: headings further apart than this (a gap in the data), or a rate last read longer ago,
+are not compared."""
 VOTES: Final = 20
 """The votes judged: the last this many."""
 CONTRARY: Final = 0.8
@@ -114,7 +115,8 @@ class RateSense:
         or agreeing again by its votes."""
         if not math.isfinite(yaw):
             return []
-        turned = {name: r.turned_at(t) for name, r in self._rates.items() if r.t is not None}
+        turned = {name: r.turned_at(t) for name, r in self._rates.items()
+                  if r.t is not None and 0.0 <= t - r.t <= MAX_GAP}  # a silent rate: no vote
         last = self._headings.get(sensor)
         self._headings[sensor] = (t, yaw, turned)
         if last is None or not 0.0 < t - last[0] <= MAX_GAP:
