@@ -88,6 +88,16 @@ the bit (Plaza1 tracks and covariances compared).
   within one afternoon: per-tick-minimum p99 1.07 ms in a quiet hour, 1.44 ms in a slow one
   (single runs 1.45–2.06 ms; the Plaza1 replay 4.6 s then 5.3 s for a one-hour log, the EKF
   45 then 47 µs): on this VM the figures move with the host's load as much as with the code.
+- Counted rather than timed (this VM's wall and CPU times moved ±15 % between two runs of
+  the same code that day): instructions under callgrind (``valgrind --tool=callgrind``) of a
+  replay of Plaza1's first 400 s, less those of the same script without the replay (the
+  imports, 5.99 G). Q's cells rewritten in place, the EKF's dozen values a tick posted on
+  the bus directly, a float posted without ``float()``, the survey check's offset column
+  built once a review: 3.178 → 3.122 G (−1.8 %), results the same to the bit (Plaza1 and
+  five fault variants: tracks, final x and P). The yaw-rate sense (``rate_sense.py``) then
+  added 0.9 % (3.150 G). Each hot path is already trimmed to the few numpy calls it needs;
+  what is left is the Python each slice runs, spread over some thirty functions of 1–5 %
+  each (py-spy), none worth a fifth of the time on its own.
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
