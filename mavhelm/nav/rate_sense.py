@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Final
 
 MIN_RATE: Final = math.radians(3.0)
@@ -63,7 +63,7 @@ class _Rate:
     turned: float = 0.0
     rate: float = 0.0
     t: float | None = None
-    votes: deque[bool] | None = None
+    votes: deque[bool] = field(default_factory=lambda: deque(maxlen=VOTES))
 
     def turned_at(self, t: float) -> float:
         """The turn integrated to ``t``, the latest rate held since its reading."""
@@ -109,7 +109,7 @@ class RateSense:
             return
         state = self._rates.get(sensor)
         if state is None:
-            state = self._rates[sensor] = _Rate(votes=deque(maxlen=VOTES))
+            state = self._rates[sensor] = _Rate()
         if state.t is not None and t > state.t:
             state.turned = state.turned_at(t)
         state.rate, state.t = rate, t
@@ -137,7 +137,6 @@ class RateSense:
             if not abs(turn) >= MIN_RATE * dt:
                 continue
             votes = self._rates[name].votes
-            assert votes is not None
             votes.append((turn > 0.0) == (step > 0.0))
             verdict = self._judge(name, sensor, votes)
             if verdict is not None:
