@@ -14,9 +14,9 @@ def _weave(seconds: float, rate_sign: float = 1.0, bias=lambda t: 0.0, hold=None
            sense: RateSense | None = None, t0: float = 0.0):
     """A vehicle weaving (yaw 40° sin(t/8)), a heading and a yaw rate each 5 Hz: the rate
     times ``rate_sign``, the heading plus ``bias(t)`` (rad), held at its value while
-    ``hold(t)``. Returns the sense and its verdicts as (t, verdict)."""
+    ``hold(t)``. Returns the sense and its findings as (t, finding)."""
     sense = sense or RateSense()
-    verdicts = []
+    findings = []
     held = None
     for t in np.arange(t0, t0 + seconds, 0.2):
         yaw = math.radians(40.0) * math.sin(t / 8.0)
@@ -28,21 +28,21 @@ def _weave(seconds: float, rate_sign: float = 1.0, bias=lambda t: 0.0, hold=None
             heading = held
         else:
             held = None
-        verdicts += [(t, v) for v in sense.heading("compass", t, heading)]
-    return sense, verdicts
+        findings += [(t, v) for v in sense.heading("compass", t, heading)]
+    return sense, findings
 
 
 def test_a_rate_of_the_right_sign_is_never_found_reversed() -> None:
-    sense, verdicts = _weave(600.0)
-    assert not verdicts and not sense.reversed
+    sense, findings = _weave(600.0)
+    assert not findings and not sense.reversed
 
 
 def test_a_reversed_rate_is_found_once_enough_turns_vote_and_dropped_when_it_agrees() -> None:
-    sense, verdicts = _weave(120.0, rate_sign=-1.0)
-    assert len(verdicts) == 1 and sense.reversed == {"gyro"}
-    t, verdict = verdicts[0]
-    assert verdict.reversed and verdict.against >= CONTRARY * VOTES
-    assert "gyro" in str(verdict) and "compass" in str(verdict) and "negated" in str(verdict)
+    sense, findings = _weave(120.0, rate_sign=-1.0)
+    assert len(findings) == 1 and sense.reversed == {"gyro"}
+    t, finding = findings[0]
+    assert finding.reversed and finding.against >= CONTRARY * VOTES
+    assert "gyro" in str(finding) and "compass" in str(finding) and "negated" in str(finding)
     assert t < 30.0  # the first clear turns: the weave turns at up to 5°/s
     sense, back = _weave(120.0, sense=sense, t0=120.0)
     assert [v.reversed for _, v in back] == [False] and not sense.reversed

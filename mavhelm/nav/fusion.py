@@ -474,9 +474,9 @@ class Fusion:
             if isinstance(obs, BodyVelocity) and obs.yaw_rate is not None:
                 sense.rate(_rate_label(r), obs.t, obs.yaw_rate)
             elif isinstance(obs, Yaw):
-                for verdict in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
+                for finding in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
                                              obs.z):
-                    self._decide(Decision(t, HEADING, str(verdict)))
+                    self._decide(Decision(t, HEADING, str(finding)))
                     ekf = self.ekf
                     if ekf is not None:  # what the rate taught, read either way, forgotten
                         bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0

@@ -71,7 +71,7 @@ class _Rate:
 
 
 @dataclass(frozen=True)
-class Verdict:
+class Finding:
     """A rate sensor found reversed (``reversed`` True) or agreeing again, with its votes."""
 
     sensor: str
@@ -114,7 +114,7 @@ class RateSense:
             state.turned = state.turned_at(t)
         state.rate, state.t = rate, t
 
-    def heading(self, sensor: str, t: float, yaw: float) -> list[Verdict]:
+    def heading(self, sensor: str, t: float, yaw: float) -> list[Finding]:
         """A heading (yaw, rad) read by ``sensor`` at ``t``; the rate sensors found reversed
         or agreeing again by its votes."""
         if not math.isfinite(yaw):
@@ -129,7 +129,7 @@ class RateSense:
         step = math.remainder(yaw - last[1], 2.0 * math.pi)
         if abs(step) < MIN_STEP:
             return []
-        verdicts = []
+        findings = []
         for name, now in turned.items():
             if name not in last[2]:
                 continue
@@ -138,19 +138,19 @@ class RateSense:
                 continue
             votes = self._rates[name].votes
             votes.append((turn > 0.0) == (step > 0.0))
-            verdict = self._judge(name, sensor, votes)
-            if verdict is not None:
-                verdicts.append(verdict)
-        return verdicts
+            finding = self._judge(name, sensor, votes)
+            if finding is not None:
+                findings.append(finding)
+        return findings
 
-    def _judge(self, name: str, heading: str, votes: deque[bool]) -> Verdict | None:
+    def _judge(self, name: str, heading: str, votes: deque[bool]) -> Finding | None:
         if len(votes) < VOTES:
             return None
         against = votes.count(False)
         if name not in self.reversed and against >= CONTRARY * len(votes):
             self.reversed.add(name)
-            return Verdict(name, heading, True, against, len(votes))
+            return Finding(name, heading, True, against, len(votes))
         if name in self.reversed and len(votes) - against >= CONTRARY * len(votes):
             self.reversed.discard(name)
-            return Verdict(name, heading, False, against, len(votes))
+            return Finding(name, heading, False, against, len(votes))
         return None
