@@ -17,9 +17,11 @@ BEACONS = {b.name: b for b in (Beacon("0", -40, -30), Beacon("1", 45, -35),
 
 
 def _drive(offset_deg: float, beacons: dict[str, Beacon] = BEACONS, speed: float = 1.5,
-           seconds: float = WINDOW, seed: int = 1) -> tuple[RangeAlignment, tuple[float, float]]:
-    """A vehicle driving at ``speed`` round a gentle curve for ``seconds``: 5 Hz odometry
-    and heading (the sensor reading ``offset_deg`` clockwise of the truth), ranges to each
+           seconds: float = WINDOW, seed: int = 1, rate: float = 0.02,
+           mirrored: bool = False) -> tuple[RangeAlignment, tuple[float, float]]:
+    """A vehicle driving at ``speed`` round a gentle curve (``rate`` rad/s) for ``seconds``:
+    5 Hz odometry and heading (the sensor reading ``offset_deg`` clockwise of the truth;
+    ``mirrored``: of the truth the wrong way round, ``offset_deg`` less it), ranges to each
     beacon in turn at 2 Hz (σ 0.3 m, 2.8 m of delay shared by every beacon, a 5 % scale).
     Returns the alignment fed and the true position at the end."""
     rng = np.random.default_rng(seed)
@@ -30,8 +32,8 @@ def _drive(offset_deg: float, beacons: dict[str, Beacon] = BEACONS, speed: float
     steps = round(seconds / dt)
     for k in range(steps + 1):
         t = k * dt
-        rate = 0.02  # rad/s: the curve
-        a.add_heading(t, math.remainder(yaw - math.radians(offset_deg)
+        read = -yaw if mirrored else yaw
+        a.add_heading(t, math.remainder(read - math.radians(offset_deg)
                                         + rng.normal(0, 0.01), 2 * math.pi))
         a.add_body_velocity(t, speed + rng.normal(0, 0.02), 0.0)
         if k % 2 == 0:
@@ -90,3 +92,28 @@ def test_old_readings_are_forgotten_and_clear_empties_it() -> None:
     assert all(t >= 2 * WINDOW for t, _ in a._headings)
     a.clear()
     assert a.estimate((x, y)) is None
+
+
+@pytest.mark.parametrize("offset_deg", [0.0, 75.0, -150.0])
+def test_a_heading_read_the_wrong_way_round_is_told_by_the_ranges(offset_deg) -> None:
+    """A sensor whose sense is mirrored dead-reckons a track bent the other way: it fits
+    the ranges only negated, at any turn. Read right, it fits only as read. Mirrored, then
+    read negated, it gives the offset as any sensor does."""
+    a, (x, y) = _drive(offset_deg, rate=0.04, mirrored=True)
+    assert a.sense((x + 3.0, y - 2.0)) is True
+    a.mirror()
+    found = a.estimate((x, y))
+    assert found is not None
+    # negated, the reading is the true yaw plus the offset: a bias of +offset
+    error = math.degrees(math.remainder(found.bias - math.radians(offset_deg), 2 * math.pi))
+    assert abs(error) < 5.0, found
+    assert math.hypot(found.x - x, found.y - y) < 2.0, found
+    a, (x, y) = _drive(offset_deg, rate=0.04)
+    assert a.sense((x + 3.0, y - 2.0)) is False
+
+
+def test_a_straight_track_cannot_tell_the_sense() -> None:
+    """A straight line is its own mirror image turned: no answer either way."""
+    for mirrored in (False, True):
+        a, (x, y) = _drive(40.0, rate=0.0, mirrored=mirrored)
+        assert a.sense((x, y)) is None

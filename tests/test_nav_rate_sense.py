@@ -81,3 +81,20 @@ def test_a_rate_gone_silent_is_not_held_into_the_turns_that_follow() -> None:
         assert not sense.heading("compass", t, math.remainder(-math.radians(5.0) * t,
                                                                2 * math.pi))
     assert not sense.reversed
+
+
+
+def test_a_rate_forgiven_is_taken_as_it_reads_and_judged_afresh() -> None:
+    """The heading was the one of the wrong sense (``Fusion._test_sense``): the rate is
+    taken as it reads at once, its votes forgotten; the heading, read negated from then on,
+    agrees with it, and no finding follows either way (without the forgiving, the agreeing
+    votes would find it "again")."""
+    sense, _ = _weave(120.0, rate_sign=-1.0)
+    assert sense.reversed == {"gyro"}
+    sense.forgive("gyro")
+    assert not sense.reversed
+    sense, after = _weave(300.0, sense=sense, t0=120.0)  # heading and rate now agree
+    assert not after and not sense.reversed
+    unforgiven, _ = _weave(120.0, rate_sign=-1.0)
+    unforgiven, again = _weave(300.0, sense=unforgiven, t0=120.0)
+    assert [f.reversed for _, f in again] == [False]

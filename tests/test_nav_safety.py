@@ -166,7 +166,7 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
     assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_jumps",
                            "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
-                           "gps_glitches", "yaw_rate_reversed"}
+                           "gps_glitches", "yaw_rate_reversed", "heading_reversed"}
     for name in FAULTS:
         # no odometer's heading, no body velocity sensor
         assert applies(name, LAYOUT) is (name not in ("heading_scale", "yaw_rate_reversed"))
@@ -202,6 +202,28 @@ def test_a_reversed_yaw_rate_is_every_body_velocity_sensors_rate_negated() -> No
         -0.1 * k for k in range(10)]
     assert ([m for m in reversed_ if m.name != "D_YAW_VEL"]
             == [m for m in log if m.name != "D_YAW_VEL"])
+
+
+def test_a_reversed_heading_turns_the_other_way_about_an_axis_each_seed_draws() -> None:
+    """Degrees clockwise (``_HEADING``) and radians anticlockwise (``_YAW``) alike: each
+    reading is one angle less the true one, so every turn is read backwards."""
+    log = [Message(name, value, float(k), "log") for k in range(10)
+           for name, value in (("C_HEADING", 10.0 * k), ("Y_YAW", math.radians(-10.0 * k)),
+                               ("R_RANGE_1", 10.0))]
+    layout = Layout(("C", "Y"), ("R",), (), (Beacon("1", 0.0, 0.0),))
+    axes = set()
+    for seed in (1, 2):
+        reversed_ = with_fault("heading_reversed", log, layout, seed)
+        headings = [m.double for m in reversed_ if m.name == "C_HEADING"]
+        yaws = [m.double for m in reversed_ if m.name == "Y_YAW"]
+        axis = headings[0]
+        axes.add(round(axis, 6))
+        assert headings == pytest.approx([(axis - 10.0 * k) % 360.0 for k in range(10)])
+        assert [math.remainder(-math.degrees(y) - h, 360.0) for y, h in zip(
+            yaws, headings, strict=True)] == pytest.approx([0.0] * 10, abs=1e-9)
+        assert [m for m in reversed_ if m.name == "R_RANGE_1"] == [
+            m for m in log if m.name == "R_RANGE_1"]
+    assert len(axes) == 2
 
 
 def test_faults_joined_are_made_on_one_log_together() -> None:

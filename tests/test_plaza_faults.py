@@ -36,7 +36,7 @@ EXAMPLE = REPO / "examples" / "plaza"
 FLOOR = 1.0
 PLAZA_FAULTS = ("heading_wander", "heading_drift", "heading_scale", "heading_jumps",
                 "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
-                "yaw_rate_reversed")
+                "yaw_rate_reversed", "heading_reversed")
 
 
 def _converted(folder: Path) -> tuple[Path, Path]:
@@ -105,16 +105,25 @@ def test_the_navigator_says_what_it_decided_about_the_heading(report) -> None:
     assert "doubted" not in report["none"] and "contradicts" not in report["none"]
 
 
-def test_a_yaw_rate_of_the_wrong_sign_is_negated_and_reported(report) -> None:
+def test_a_yaw_rate_or_a_heading_of_the_wrong_sense_is_told_apart_and_reported(report) -> None:
     """The odometry's yaw rate reversed: 7.76 m RMS before the rate was voted against the
     heading's turns (290 decisions, none naming the cause), 0.42 m after (found at 52.8 s,
-    within a second of the robot's first turns, and taken negated)."""
+    within a second of the robot's first turns, and taken negated). Its heading reversed
+    instead: 9.00 m, then 5.79 m with the rate negated to agree with it, 0.72 m once the
+    track the ranges fit tells which of the two turns the wrong way (at 87 s in both)."""
     text = report["yaw_rate_reversed"]
     assert re.search(r"the yaw rate ODOM_YAW_VEL \(sensor \w+\) turns against the heading of "
                      r"sensor \w+ \(ODOM\)[^\n]*taken negated", text), text
+    assert re.search(r"the track the ranges fit turns with the heading of sensor \w+: the yaw "
+                     r"rate ODOM_YAW_VEL \(sensor \w+\) is the one of the wrong sense", text), text
+    heading = report["heading_reversed"]
+    assert re.search(r"the heading of sensor \w+ turns against the track the ranges fit, the "
+                     r"yaw rate ODOM_YAW_VEL \(sensor \w+\) with it: the heading is the one "
+                     r"of the wrong sense, taken negated", heading), heading
+    assert "turns with the heading" not in heading
     for fault, other in report.items():
-        if fault != "yaw_rate_reversed":
-            assert "turns against the heading" not in other, fault
+        if fault not in ("yaw_rate_reversed", "heading_reversed"):
+            assert "turns against" not in other and "wrong sense" not in other, fault
 
 
 def test_a_beacon_off_its_survey_is_found_and_reported(report) -> None:

@@ -73,6 +73,15 @@ MOVED: Final = 0.5
 error, not motion: a vehicle standing still between two LSQ fixes a range outlier threw 8 m
 apart (Plaza1 with 5 % of its ranges wrong: 25 such runs agreed within 2° on a −78° offset,
 and the heading was turned by it, 0.15 → 21.9 m)."""
+SENSE_RUNS: Final = 6
+"""Runs the course made good must have been measured over before it is asked which way the
+headings turn (:meth:`MotionAlignment.sense`)."""
+SENSE_SPREAD: Final = math.radians(20.0)
+"""rad: the circular spread of the sensor's offsets from the courses, read one way round,
+at most for that way to be believed ..."""
+SENSE_RATIO: Final = 3.0
+"""... and the other way's at least this many times larger (along one course, or any
+straight line, the two spread alike: no answer)."""
 HEADING_EVERY: Final = 0.2
 FIX_EVERY: Final = 0.5
 """s: readings and fixes closer in time to the last one kept are not kept: a run's mean is as
@@ -83,6 +92,20 @@ and a 5 Hz GPS would otherwise cost a pass over a hundred readings five times a 
 def course_yaw(dx: float, dy: float) -> float:
     """The course of a run (dx east, dy north) as a yaw (rad, yaw = −heading)."""
     return -math.atan2(dx, dy)
+
+
+@dataclass(frozen=True)
+class Sense:
+    """Which way round the headings turn against the courses made good: ``reversed`` where
+    only negated they keep one offset from them; ``bias`` (rad, yaw) is the offset of the
+    reading taken the right way round from the course, to ``spread``, over ``runs`` runs;
+    ``velocity`` (east, north, m/s) the latest run's."""
+
+    reversed: bool
+    bias: float
+    spread: float
+    runs: int
+    velocity: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -114,9 +137,10 @@ class MotionAlignment:
 
     def __init__(self) -> None:
         self._fixes: deque[tuple[float, float, float]] = deque()
-        self._headings: deque[tuple[float, float, float, float, float]] = deque()
+        self._headings: deque[tuple[float, ...]] = deque()
         """(t, sine, cosine) of each reading less the bias held, then the sine and cosine of
-        its offset from the filter's own heading then; computed once."""
+        its offset from the filter's own heading then, then of the reading itself; computed
+        once."""
         self._astern: deque[float] = deque()
         self._speeds: deque[tuple[float, float]] = deque()
         """(t, speed over the ground the body velocity says, m/s)."""
@@ -125,6 +149,9 @@ class MotionAlignment:
         filter's heading over it, then of the filter's heading error (the two's difference);
         their sums kept as runs come and go."""
         self._sums: tuple[float, ...] = (0.0,) * 6
+        self._courses: deque[tuple[float, float, float]] = deque()
+        """(t, course made good, the sensor's mean raw reading) of each straight run: which
+        way round the sensor turns (:meth:`sense`)."""
         self._velocity = (0.0, 0.0)
         self._estimate: Alignment | None = None
         self._fresh = True
@@ -135,6 +162,7 @@ class MotionAlignment:
         self._astern.clear()
         self._speeds.clear()
         self._runs.clear()
+        self._courses.clear()
         self._sums = (0.0,) * 6
         self._estimate, self._fresh = None, True
 
@@ -148,7 +176,8 @@ class MotionAlignment:
             return
         a = yaw - bias
         off = 0.0 if held is None else a - held
-        headings.append((t, math.sin(a), math.cos(a), math.sin(off), math.cos(off)))
+        headings.append((t, math.sin(a), math.cos(a), math.sin(off), math.cos(off),
+                         math.sin(yaw), math.cos(yaw)))
         while headings[0][0] < t - WINDOW:
             headings.popleft()
 
@@ -178,6 +207,9 @@ class MotionAlignment:
             _, *old = runs.popleft()
             self._sums = tuple(a - b for a, b in zip(self._sums, old, strict=True))
             self._fresh = False
+        courses = self._courses
+        while courses and courses[0][0] < t - WINDOW:
+            courses.popleft()
         start = next((f for f in reversed(fixes) if math.hypot(x - f[1], y - f[2]) >= RUN), None)
         fixes.append((t, x, y))
         if start is None or start[0] >= t:
@@ -196,7 +228,10 @@ class MotionAlignment:
         sm, cm = math.sin(mean), math.cos(mean)
         if min(h[2] * cm + h[1] * sm for h in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
-        correction = mean - course_yaw(dx, dy)
+        course = course_yaw(dx, dy)
+        courses.append((t, course, math.atan2(sum(h[5] for h in readings),
+                                              sum(h[6] for h in readings))))
+        correction = mean - course
         stale = math.atan2(sum(h[3] for h in readings), sum(h[4] for h in readings))
         run = (math.sin(correction), math.cos(correction), math.sin(stale), math.cos(stale),
                math.sin(correction - stale), math.cos(correction - stale))
@@ -230,6 +265,27 @@ class MotionAlignment:
             self._estimate = Alignment(correction, spread, n, self._velocity, heading_error,
                                        stale, stale_spread, told)
         return self._estimate
+
+    def sense(self) -> Sense | None:
+        """Which way round the sensor turns, from the window's straight runs: read as it is,
+        or negated (its sense the wrong way round), the readings keep one offset from the
+        courses made good across the vehicle's turns, where the other way's offsets turn
+        with them. None with fewer than ``SENSE_RUNS`` runs, or where neither way is
+        clearly the one (runs all along one course cannot tell)."""
+        courses = self._courses
+        n = len(courses)
+        if n < SENSE_RUNS:
+            return None
+        ways = []
+        for sign in (1.0, -1.0):  # the reading as it is, then negated
+            offsets = [sign * raw - course for _, course, raw in courses]
+            ways.append(_circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)), n))
+        (as_read, spread), (negated, negated_spread) = ways
+        if negated_spread <= SENSE_SPREAD and spread >= SENSE_RATIO * negated_spread:
+            return Sense(True, negated, negated_spread, n, self._velocity)
+        if spread <= SENSE_SPREAD and negated_spread >= SENSE_RATIO * spread:
+            return Sense(False, as_read, spread, n, self._velocity)
+        return None
 
 
 def _circular(sines: float, cosines: float, n: int) -> tuple[float, float]:

@@ -24,6 +24,8 @@ those real vehicles meet:
                        two minutes
 ``yaw_rate_reversed``  the body velocity sensors' yaw rate of the wrong sign (a gyro mounted
                        upside down, a rate logged clockwise-positive)
+``heading_reversed``   the orientation sensor read the wrong way round, about an axis drawn at
+                       random (a compass's clockwise heading given as an anticlockwise yaw)
 =====================  =======================================================================
 
 Faults join with ``+`` to be made on one log together (``heading_wander+heading_jumps``).
@@ -250,6 +252,18 @@ def yaw_rate_reversed(messages: list[Message], layout: Layout,
             for m in messages]
 
 
+def heading_reversed(messages: list[Message], layout: Layout,
+                     rng: np.random.Generator) -> list[Message]:
+    axis = rng.uniform(0.0, 360.0)  # the reading is ``axis`` less the true heading (deg)
+
+    def mirrored(m: Message) -> Message:
+        if m.name.endswith("_HEADING"):
+            return m._replace(value=(axis - m.double) % 360.0)
+        return m._replace(value=math.remainder(-m.double - math.radians(axis), 2 * math.pi))
+    return [mirrored(m) if _is(m, layout.orientation, "HEADING", "YAW") else m
+            for m in messages]
+
+
 def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     xs = {m.time: m.double for m in messages if m.name == TRUTH[0] and m.is_double}
     ys = {m.time: m.double for m in messages if m.name == TRUTH[1] and m.is_double}
@@ -268,6 +282,7 @@ FAULTS: dict[str, FaultMaker] = {
     "range_outliers": range_outliers,
     "gps_glitches": gps_glitches,
     "yaw_rate_reversed": yaw_rate_reversed,
+    "heading_reversed": heading_reversed,
 }
 """Every fault by name, in the order a report lists them."""
 

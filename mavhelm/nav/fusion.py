@@ -141,6 +141,11 @@ ALIGN_SIGMA_VELOCITY = 0.5
 RANGE_CHECK_EVERY = 2.0
 """s between two asks of the heading from the ranges while a doubt lasts (``RANGE_WINDOW``
 after it)."""
+SENSE_TIME = 900.0
+"""s after a yaw rate is found turning against a heading during which the ranges' track is
+asked which of the two turns the wrong way (:meth:`Fusion._test_sense`)."""
+SENSE_CHECK_EVERY = 2.0
+"""s between two such asks (each fits the track both ways round, sixteen fits)."""
 
 
 @dataclass(frozen=True)
@@ -231,6 +236,14 @@ class Fusion:
         self.rate_sense = RateSense()
         """The body velocity sensors' yaw rates voted against the headings' turns: a rate of
         the wrong sense is negated (:mod:`mavhelm.nav.rate_sense`)."""
+        self.reversed_headings: set[str] = set()
+        """Heading sensors whose sense the ranges found the wrong way round, where a rate
+        turned against them (:meth:`_test_sense`): their readings are taken negated."""
+        self._sense_test: tuple[float, float, str, str] | None = None
+        """While a rate turns against a heading: (until when and when next the ranges are
+        asked which of the two is wrong, the rate, the heading sensor)."""
+        self._sense_said: bool | None = None
+        """The ranges' last answer to it, which the next must confirm."""
         self._heading_coupled = config.fixed_sideslip is not None
         """Whether the heading moves the position (a sideslip constraint, a body velocity with
         a speed): then the motion can tell a heading bias from a heading."""
@@ -421,7 +434,8 @@ class Fusion:
                 x, y, yaw, t = x + vx * dt, y + vy * dt, yaw + w * dt, ti
             obs = reading.obs
             if isinstance(obs, Yaw):
-                yaw = obs.z - e.yaw_bias
+                z = -obs.z if reading.sensor.name in self.reversed_headings else obs.z
+                yaw = z - e.yaw_bias
             elif isinstance(obs, BodyVelocity):
                 if obs.yaw_rate is not None:
                     w = -obs.yaw_rate if _rate_label(reading) in reversed_ else obs.yaw_rate
@@ -440,6 +454,10 @@ class Fusion:
 
     def _slice(self, t: float, batch: list[Reading]) -> None:
         kept = [r for r in batch if self._channel_agrees(r)]
+        if self.reversed_headings:
+            kept = [dataclasses.replace(r, obs=dataclasses.replace(r.obs, z=-r.obs.z))
+                    if isinstance(r.obs, Yaw) and r.sensor.name in self.reversed_headings
+                    else r for r in kept]
         for r in kept:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
@@ -460,10 +478,13 @@ class Fusion:
                 for r in kept:
                     self._log(r, "waiting")
                 return
+        if self._sense_test is not None:
+            kept = self._undecided(kept)
         if kept:
             self._update(t, kept)
         self._align(t)
         self._align_from_ranges(t)
+        self._test_sense(t)
 
     def _sensed(self, t: float, kept: list[Reading]) -> list[Reading]:
         """The slice's yaw rates and headings voted (:mod:`mavhelm.nav.rate_sense`); the
@@ -477,6 +498,9 @@ class Fusion:
                 for finding in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
                                              obs.z):
                     self._decide(Decision(t, HEADING, str(finding)))
+                    self._sense_test = ((t + SENSE_TIME, t, finding.sensor, r.sensor.name)
+                                        if finding.reversed else None)
+                    self._sense_said = None
                     ekf = self.ekf
                     if ekf is not None:  # what the rate taught, read either way, forgotten
                         bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
@@ -486,6 +510,23 @@ class Fusion:
         return [dataclasses.replace(r, obs=dataclasses.replace(r.obs, yaw_rate=-r.obs.yaw_rate))
                 if isinstance(r.obs, BodyVelocity) and r.obs.yaw_rate is not None
                 and _rate_label(r) in sense.reversed else r for r in kept]
+
+    def _undecided(self, kept: list[Reading]) -> list[Reading]:
+        """While it is open which of a yaw rate and a heading turns the wrong way, the
+        filter takes neither: the motion holds the heading meanwhile."""
+        assert self._sense_test is not None
+        _, _, rate, heading = self._sense_test
+        out = []
+        for r in kept:
+            if isinstance(r.obs, Yaw) and r.sensor.name == heading:
+                continue
+            if isinstance(r.obs, BodyVelocity) and r.obs.yaw_rate is not None \
+                    and _rate_label(r) == rate:
+                if r.obs.forward is None and r.obs.starboard is None:
+                    continue
+                r = dataclasses.replace(r, obs=dataclasses.replace(r.obs, yaw_rate=None))
+            out.append(r)
+        return out
 
     def _feed_alignment(self, kept: list[Reading], fixes: list[Fix]) -> None:
         """Headings, astern runs, then the slice's fixes (the LSQ's, else an XY sensor's)."""
@@ -607,11 +648,21 @@ class Fusion:
         if abs(math.remainder(found.bias - bias, 2 * math.pi)) < RANGE_MIN_TURN:
             self._range_doubt, self._range_heading = (-math.inf, -math.inf), None
             return  # the filter holds the heading the ranges say: the doubt is over
+        self._heading_from_ranges(t, found, bias,
+                                  abs(math.remainder(found.bias - bias, 2 * math.pi))
+                                  > ALIGN_RESET)
+
+    def _heading_from_ranges(self, t: float, found: RangeHeading, bias: float,
+                             restarted: bool) -> None:
+        """The heading turned onto the one the ranges fit (``found``; ``bias`` the filter's
+        until now), and where ``restarted`` the filter started again where they put the
+        vehicle."""
+        ekf = self.ekf
+        assert ekf is not None
         if ekf.i_bias is None:
             ekf = self._add_yaw_bias(t)
         held = ekf.x.item(I_H)
         sigma = max(found.sigma, 1.0)
-        restarted = abs(math.remainder(found.bias - bias, 2 * math.pi)) > ALIGN_RESET
         if restarted:  # as _align: so far out, every hidden state was misled too
             ekf.reinitialise(found.x, found.y, sigma, yaw=self._last_yaw)
             ekf.warnings.pop()  # the decision below says it
@@ -632,6 +683,68 @@ class Fusion:
             f"{math.degrees(bias):+.0f}°; heading turned by {math.degrees(turn):+.0f}°"
             + (f", the filter restarted at ({found.x:.1f}, {found.y:.1f}) ± {sigma:.1f} m"
                if restarted else ""))))
+
+    def _test_sense(self, t: float) -> None:
+        """While a yaw rate turns against a heading, which of the two is wrong: the track
+        dead-reckoned from the headings fits the ranges either as they read or negated
+        (:meth:`RangeAlignment.sense`), or, without ranges to tell, the headings keep one
+        offset from the courses made good between fixes either way round
+        (:meth:`MotionAlignment.sense`); twice in a row. Negated: the heading sensor's sense
+        is the wrong way round (a clockwise heading given as pNav's anticlockwise yaw), not
+        the rate's. Its readings are taken negated from now on, the rate as it reads, what
+        the two taught the filter forgotten, and the heading (and, from the ranges, the
+        position) taken from the motion."""
+        test, ekf = self._sense_test, self.ekf
+        if test is None or ekf is None:
+            return
+        until, next_at, rate, heading = test
+        if t > until:
+            self._sense_test = None
+            return
+        if t < next_at:
+            return
+        self._sense_test = (until, t + SENSE_CHECK_EVERY, rate, heading)
+        near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
+                                                                      ekf.x.item(I_Y))
+        by_ranges = self.range_alignment.sense(near) if self.config.beacons else None
+        by_courses = self.alignment.sense() if by_ranges is None else None
+        answer = by_ranges if by_ranges is not None else (
+            by_courses.reversed if by_courses is not None else None)
+        said, self._sense_said = self._sense_said, answer
+        if answer is None or answer != said:
+            return
+        self._sense_test, self._sense_said = None, None
+        told = ("the track the ranges fit" if by_ranges is not None
+                else "the courses made good between fixes")
+        if not answer:
+            self._decide(Decision(t, HEADING, (
+                f"{told} turn with the heading of sensor {heading}: the yaw rate {rate} is "
+                f"the one of the wrong sense, taken negated")))
+            return
+        self.reversed_headings.add(heading)
+        self.rate_sense.forgive(rate)
+        self.range_alignment.mirror()
+        self.alignment.clear()
+        if self._last_yaw is not None:
+            self._last_yaw = -self._last_yaw
+        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+        ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+        self._decide(Decision(t, HEADING, (
+            f"the heading of sensor {heading} turns against {told}, the yaw rate {rate} "
+            f"with it: the heading is the one of the wrong sense, taken negated from now "
+            f"on, the rate as it reads (check the heading's convention: S_YAW "
+            f"anticlockwise from east, S_HEADING clockwise from north)")))
+        found = self.range_alignment.estimate(near) if by_ranges else None
+        if found is not None:
+            self._heading_from_ranges(t, found, bias, restarted=True)
+            return
+        if by_courses is not None:
+            if ekf.i_bias is None:
+                ekf = self._add_yaw_bias(t)
+            ekf.realign_heading(by_courses.bias, max(by_courses.spread, ALIGN_SIGMA),
+                                by_courses.velocity, ALIGN_SIGMA_VELOCITY)
+        ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+        self._doubt_from_ranges(t)
 
     def _new_beacon_watch(self) -> BeaconWatch:
         """A beacon watch whose offsets take the blame where the track cannot, or where a

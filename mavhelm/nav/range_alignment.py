@@ -38,7 +38,7 @@ from typing import Final
 import numpy as np
 
 from mavhelm.nav.ekf import Beacon, wrap_angle
-from mavhelm.nav.survey_check import fit_tracks
+from mavhelm.nav.survey_check import Fit, fit_tracks
 
 WINDOW: Final = 40.0
 """s of readings kept and fitted."""
@@ -55,6 +55,9 @@ MIN_TURN: Final = math.radians(30.0)
 less are one answer."""
 RATIO: Final = 4.0
 """How many times better the best fit must be than the best of any other answer."""
+SENSE_RATIO: Final = 3.0
+"""How many times better the track must fit one way round than the other (at its best turn
+each) to tell which way the headings turn."""
 MAX_CHI2: Final = 2.0
 """The best fit's robust χ² per degree of freedom at most (the ranges' σ as the filter
 weighs them): a track of the wrong shape (a stuck sensor's, the vehicle turning) fits no
@@ -111,7 +114,48 @@ class RangeAlignment:
         """The sensor's bias and the position from the window's fits; None where the track
         or the ranges are too few, the best fit is poor, or another turn fits nearly as
         well. ``near`` is a position guess for now (m)."""
-        track = self._track()
+        fitted = self._fits(near, mirrored=False)
+        if fitted is None:
+            return None
+        best, turn, stretch = min(fitted, key=lambda f: f[0].chi2)
+        others = [f[0].chi2 for f in fitted if abs(wrap_angle(f[1] - turn)) >= MIN_TURN]
+        chi2_other = min(others, default=math.inf)
+        if best.chi2 > MAX_CHI2 or chi2_other < RATIO * best.chi2:
+            return None
+        c, s = math.cos(turn), math.sin(turn)
+        vx, vy = self._velocity()
+        velocity = ((1 + stretch) * (c * vx - s * vy), (1 + stretch) * (s * vx + c * vy))
+        return RangeHeading(best.t, wrap_angle(-turn), best.x, best.y, best.sigma, velocity,
+                            best.chi2, chi2_other)  # the true yaw: the reading turned
+
+    def sense(self, near: tuple[float, float]) -> bool | None:
+        """Whether the headings turn the wrong way: True where the track dead-reckoned from
+        them negated fits the ranges ``SENSE_RATIO`` times better (robust χ² per degree of
+        freedom) than from them as read, at any turn of either, False where as read fits so
+        much better, None where the window cannot tell (a straight track is its own mirror
+        image turned)."""
+        best = []
+        for mirrored in (False, True):
+            fitted = self._fits(near, mirrored)
+            if fitted is None:
+                return None
+            best.append(min(f[0].chi2 for f in fitted))
+        as_read, negated = best
+        if negated <= MAX_CHI2 and as_read >= SENSE_RATIO * negated:
+            return True
+        if as_read <= MAX_CHI2 and negated >= SENSE_RATIO * as_read:
+            return False
+        return None
+
+    def mirror(self) -> None:
+        """The headings kept so far negated: the sensor is now read the other way round."""
+        self._headings = deque((t, -yaw) for t, yaw in self._headings)
+
+    def _fits(self, near: tuple[float, float], mirrored: bool
+              ) -> list[tuple[Fit, float, float]] | None:
+        """The window's track fitted from each of ``STARTS`` turns: (fit, turn, stretch)
+        each; None where the track or the ranges are too few."""
+        track = self._track(mirrored)
         if track is None:
             return None
         times, east, north = track
@@ -138,20 +182,9 @@ class RangeAlignment:
                 continue
             if math.isfinite(fits[0].chi2):
                 found.append((fits[0], float(p[0, 2]), float(p[0, 3])))
-        if not found:
-            return None
-        best, turn, stretch = min(found, key=lambda f: f[0].chi2)
-        others = [f[0].chi2 for f in found if abs(wrap_angle(f[1] - turn)) >= MIN_TURN]
-        chi2_other = min(others, default=math.inf)
-        if best.chi2 > MAX_CHI2 or chi2_other < RATIO * best.chi2:
-            return None
-        c, s = math.cos(turn), math.sin(turn)
-        vx, vy = self._velocity()
-        velocity = ((1 + stretch) * (c * vx - s * vy), (1 + stretch) * (s * vx + c * vy))
-        return RangeHeading(best.t, wrap_angle(-turn), best.x, best.y, best.sigma, velocity,
-                            best.chi2, chi2_other)  # the true yaw: the reading turned
+        return found or None
 
-    def _track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def _track(self, mirrored: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """The body velocity turned by the sensor's heading, integrated over the window:
         times, east and north (m); None when it spans too little time or ground."""
         if len(self._velocities) < 2 or not self._headings:
@@ -162,7 +195,7 @@ class RangeAlignment:
             return None
         # the heading at each body velocity: the latest reading at or before it
         at = np.clip(np.searchsorted(h[:, 0], v[:, 0], side="right") - 1, 0, len(h) - 1)
-        yaw = h[at, 1]
+        yaw = -h[at, 1] if mirrored else h[at, 1]
         s, c = np.sin(yaw), np.cos(yaw)
         east = -v[:, 1] * s + v[:, 2] * c
         north = v[:, 1] * c + v[:, 2] * s

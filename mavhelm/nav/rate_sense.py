@@ -143,6 +143,16 @@ class RateSense:
                 findings.append(finding)
         return findings
 
+    def forgive(self, sensor: str) -> None:
+        """A rate found reversed taken as it reads again, its votes and every heading's last
+        reading forgotten: the heading it was judged by was the one of the wrong sense, and
+        is read the other way round from now on."""
+        self.reversed.discard(sensor)
+        state = self._rates.get(sensor)
+        if state is not None:
+            state.votes.clear()
+        self._headings.clear()
+
     def _judge(self, name: str, heading: str, votes: deque[bool]) -> Finding | None:
         if len(votes) < VOTES:
             return None
