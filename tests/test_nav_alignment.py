@@ -154,3 +154,41 @@ def test_a_kick_the_filter_refused_is_no_stale_bias() -> None:
     end = _straight(followed, 30.0, 0.0, 12.0, bias_deg=0.0)
     _straight(followed, 30.0, 0.0, 16.0, t0=end + 25.0)
     assert followed.estimate() is None
+
+
+def _legs(courses_deg: list[float], *, mirrored: bool, axis_deg: float = 70.0,
+          leg_s: float = 15.0, fix_noise: float = 0.3, seed: int = 0) -> MotionAlignment:
+    """Drive legs of ``leg_s`` on each course in turn at 1.5 m/s, a fix every 0.5 s (its
+    error ``fix_noise`` m), the sensor at 10 Hz reading the yaw plus 20°, or ``mirrored``:
+    ``axis_deg`` less the yaw (its sense the wrong way round)."""
+    rng = random.Random(seed)
+    a = MotionAlignment()
+    x = y = t = 0.0
+    for course in courses_deg:
+        h = math.radians(course)
+        for _ in range(round(leg_s / 0.1)):
+            yaw = -h
+            read = math.radians(axis_deg) - yaw if mirrored else yaw + math.radians(20.0)
+            a.add_heading(t, math.remainder(read, 2 * math.pi))
+            if round(t * 10) % 5 == 0:
+                a.add_fix(t, x + rng.gauss(0.0, fix_noise), y + rng.gauss(0.0, fix_noise))
+            x, y, t = x + 0.15 * math.sin(h), y + 0.15 * math.cos(h), round(t + 0.1, 6)
+    return a
+
+
+def test_a_heading_read_the_wrong_way_round_is_told_by_the_courses_across_turns() -> None:
+    """Read the wrong way round, the sensor's offset from the course turns twice as far as
+    the vehicle; negated, it holds one offset, which is the bias to take it with."""
+    mirrored = _legs([30.0, 120.0, 210.0, 300.0], mirrored=True).sense()
+    assert mirrored is not None and mirrored.reversed
+    # negated, the reading is the true yaw less the axis: a bias of −axis
+    assert abs(math.degrees(math.remainder(mirrored.bias + math.radians(70.0),
+                                           2 * math.pi))) < 3.0
+    right = _legs([30.0, 120.0, 210.0, 300.0], mirrored=False).sense()
+    assert right is not None and not right.reversed
+    assert abs(math.degrees(right.bias) - 20.0) < 3.0
+
+
+def test_one_course_cannot_tell_which_way_round_the_sensor_reads() -> None:
+    for mirrored in (False, True):
+        assert _legs([30.0, 30.0, 30.0], mirrored=mirrored).sense() is None

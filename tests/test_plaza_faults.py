@@ -107,10 +107,12 @@ def test_the_navigator_says_what_it_decided_about_the_heading(report) -> None:
 
 def test_a_yaw_rate_or_a_heading_of_the_wrong_sense_is_told_apart_and_reported(report) -> None:
     """The odometry's yaw rate reversed: 7.76 m RMS before the rate was voted against the
-    heading's turns (290 decisions, none naming the cause), 0.42 m after (found at 52.8 s,
-    within a second of the robot's first turns, and taken negated). Its heading reversed
-    instead: 9.00 m, then 5.79 m with the rate negated to agree with it, 0.72 m once the
-    track the ranges fit tells which of the two turns the wrong way (at 87 s in both)."""
+    heading's turns (290 decisions, none naming the cause); found at 52.8 s, within a
+    second of the robot's first turns, and taken negated: 0.42 m. Its heading reversed
+    instead: 9.00 m, then 5.79 m with the rate negated to agree with it. Now the track the
+    ranges fit tells which of the two turns the wrong way (at 87 s in both), and the filter
+    takes neither until it does: heading reversed 0.58 m, rate reversed 0.61 m (the robot
+    turns in place before it moves, with neither)."""
     text = report["yaw_rate_reversed"]
     assert re.search(r"the yaw rate ODOM_YAW_VEL \(sensor \w+\) turns against the heading of "
                      r"sensor \w+ \(ODOM\)[^\n]*taken negated", text), text

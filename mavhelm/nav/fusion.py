@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mavhelm.nav.alignment import MAX_SPREAD, MotionAlignment
+from mavhelm.nav.alignment import MAX_SPREAD, MotionAlignment, Sense
 from mavhelm.nav.beacon_watch import BeaconWatch
 from mavhelm.nav.ekf import (
     ALONG_TRACK,
@@ -141,9 +141,10 @@ ALIGN_SIGMA_VELOCITY = 0.5
 RANGE_CHECK_EVERY = 2.0
 """s between two asks of the heading from the ranges while a doubt lasts (``RANGE_WINDOW``
 after it)."""
-SENSE_TIME = 900.0
-"""s after a yaw rate is found turning against a heading during which the ranges' track is
-asked which of the two turns the wrong way (:meth:`Fusion._test_sense`)."""
+SENSE_TIME = 300.0
+"""s after a yaw rate is found turning against a heading during which the motion is asked
+which of the two turns the wrong way (:meth:`Fusion._test_sense`), and the filter takes
+neither; untold by then, the rate is taken negated and the heading as it reads."""
 SENSE_CHECK_EVERY = 2.0
 """s between two such asks (each fits the track both ways round, sixteen fits)."""
 
@@ -466,7 +467,8 @@ class Fusion:
         self._feed_alignment(kept, fixes)
         if self.ekf is not None:
             cruising = self.heading_watch.under_way_for(t) >= UNDER_WAY_TIME
-            self.ekf.along_track = ALONG_TRACK if cruising else 1.0
+            # no heading to take the speed along while it is open which way the sensor reads
+            self.ekf.along_track = ALONG_TRACK if cruising and self._sense_test is None else 1.0
             self.ekf.advance(t)
             x = self.ekf.x
             self.survey_check.move(t, x.item(I_X), x.item(I_Y), x.item(I_VX), x.item(I_VY))
@@ -498,8 +500,9 @@ class Fusion:
                 for finding in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
                                              obs.z):
                     self._decide(Decision(t, HEADING, str(finding)))
+                    told = self.config.beacons or self._last_fix is not None
                     self._sense_test = ((t + SENSE_TIME, t, finding.sensor, r.sensor.name)
-                                        if finding.reversed else None)
+                                        if finding.reversed and told else None)
                     self._sense_said = None
                     ekf = self.ekf
                     if ekf is not None:  # what the rate taught, read either way, forgotten
@@ -699,7 +702,13 @@ class Fusion:
             return
         until, next_at, rate, heading = test
         if t > until:
-            self._sense_test = None
+            self._sense_test, self._sense_said = None, None
+            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+            self._decide(Decision(t, HEADING, (
+                f"the motion did not tell in {SENSE_TIME:.0f} s which of the heading of "
+                f"sensor {heading} and the yaw rate {rate} turns the wrong way: the rate "
+                f"is taken negated, the heading as it reads")))
             return
         if t < next_at:
             return
@@ -714,37 +723,59 @@ class Fusion:
         if answer is None or answer != said:
             return
         self._sense_test, self._sense_said = None, None
-        told = ("the track the ranges fit" if by_ranges is not None
-                else "the courses made good between fixes")
-        if not answer:
+        told, turn = (("the track the ranges fit", "turns") if by_ranges is not None
+                      else ("the courses made good between fixes", "turn"))
+        if answer:
+            self.reversed_headings.add(heading)
+            self.rate_sense.forgive(rate)
+            self.range_alignment.mirror()
+            self.alignment.clear()
+            if self._last_yaw is not None:
+                self._last_yaw = -self._last_yaw
+            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
             self._decide(Decision(t, HEADING, (
-                f"{told} turn with the heading of sensor {heading}: the yaw rate {rate} is "
-                f"the one of the wrong sense, taken negated")))
-            return
-        self.reversed_headings.add(heading)
-        self.rate_sense.forgive(rate)
-        self.range_alignment.mirror()
-        self.alignment.clear()
-        if self._last_yaw is not None:
-            self._last_yaw = -self._last_yaw
+                f"the heading of sensor {heading} turns against {told}, the yaw rate {rate} "
+                f"with it: the heading is the one of the wrong sense, taken negated from now "
+                f"on, the rate as it reads (check the heading's convention: S_YAW "
+                f"anticlockwise from east, S_HEADING clockwise from north)")))
+        else:
+            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+            self._decide(Decision(t, HEADING, (
+                f"{told} {turn} with the heading of sensor {heading}: the yaw rate {rate} "
+                f"is the one of the wrong sense, taken negated")))
+        self._heading_after_sense(t, near, by_courses, restart=answer)
+
+    def _heading_after_sense(self, t: float, near: tuple[float, float],
+                             by_courses: Sense | None, restart: bool) -> None:
+        """The heading taken from what told the sense, where the filter's is far from it:
+        while undecided it took neither the heading nor the rate, and a heading newly read
+        the other way round is anywhere."""
+        ekf = self.ekf
+        assert ekf is not None
         bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
-        ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
-        self._decide(Decision(t, HEADING, (
-            f"the heading of sensor {heading} turns against {told}, the yaw rate {rate} "
-            f"with it: the heading is the one of the wrong sense, taken negated from now "
-            f"on, the rate as it reads (check the heading's convention: S_YAW "
-            f"anticlockwise from east, S_HEADING clockwise from north)")))
-        found = self.range_alignment.estimate(near) if by_ranges else None
-        if found is not None:
-            self._heading_from_ranges(t, found, bias, restarted=True)
-            return
-        if by_courses is not None:
+        if by_courses is None:
+            found = self.range_alignment.estimate(near)
+            far = found is not None and abs(math.remainder(found.bias - bias, 2 * math.pi))
+            if found is not None and (restart or far >= RANGE_MIN_TURN):
+                self._heading_from_ranges(t, found, bias, restart or far > ALIGN_RESET)
+                return
+        elif restart or abs(math.remainder(by_courses.bias - bias, 2 * math.pi)) >= ALIGN_JUMP:
             if ekf.i_bias is None:
                 ekf = self._add_yaw_bias(t)
-            ekf.realign_heading(by_courses.bias, max(by_courses.spread, ALIGN_SIGMA),
-                                by_courses.velocity, ALIGN_SIGMA_VELOCITY)
-        ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
-        self._doubt_from_ranges(t)
+            turn = ekf.realign_heading(by_courses.bias, max(by_courses.spread, ALIGN_SIGMA),
+                                       by_courses.velocity, ALIGN_SIGMA_VELOCITY)
+            ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+            self._decide(Decision(t, HEADING, (
+                f"heading taken from the motion: the orientation sensor reads "
+                f"{math.degrees(by_courses.bias):+.0f}° off the courses made good over "
+                f"{by_courses.runs} runs (spread {math.degrees(by_courses.spread):.0f}°); "
+                f"heading turned by {math.degrees(turn):+.0f}°")))
+            return
+        if restart:
+            ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
+            self._doubt_from_ranges(t)
 
     def _new_beacon_watch(self) -> BeaconWatch:
         """A beacon watch whose offsets take the blame where the track cannot, or where a
