@@ -42,7 +42,7 @@ def test_a_reversed_rate_is_found_once_enough_turns_vote_and_dropped_when_it_agr
     assert len(findings) == 1 and sense.reversed == {"gyro"}
     t, finding = findings[0]
     assert finding.reversed and finding.against >= CONTRARY * VOTES
-    assert "gyro" in str(finding) and "compass" in str(finding) and "negated" in str(finding)
+    assert "gyro" in str(finding) and "compass" in str(finding) and "wrong sense" in str(finding)
     assert t < 30.0  # the first clear turns: the weave turns at up to 5°/s
     sense, back = _weave(120.0, sense=sense, t0=120.0)
     assert [v.reversed for _, v in back] == [False] and not sense.reversed

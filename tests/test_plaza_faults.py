@@ -115,7 +115,8 @@ def test_a_yaw_rate_or_a_heading_of_the_wrong_sense_is_told_apart_and_reported(r
     turns in place before it moves, with neither)."""
     text = report["yaw_rate_reversed"]
     assert re.search(r"the yaw rate ODOM_YAW_VEL \(sensor \w+\) turns against the heading of "
-                     r"sensor \w+ \(ODOM\)[^\n]*taken negated", text), text
+                     r"sensor \w+ \(ODOM\)[^\n]*neither is taken until the motion tells which",
+                     text), text
     assert re.search(r"the track the ranges fit turns with the heading of sensor \w+: the yaw "
                      r"rate ODOM_YAW_VEL \(sensor \w+\) is the one of the wrong sense", text), text
     heading = report["heading_reversed"]

@@ -499,11 +499,14 @@ class Fusion:
             elif isinstance(obs, Yaw):
                 for finding in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
                                              obs.z):
-                    self._decide(Decision(t, HEADING, str(finding)))
                     told = self.config.beacons or self._last_fix is not None
                     self._sense_test = ((t + SENSE_TIME, t, finding.sensor, r.sensor.name)
                                         if finding.reversed and told else None)
                     self._sense_said = None
+                    what = "" if not finding.reversed else (
+                        "; neither is taken until the motion tells which" if told
+                        else "; the rate is taken negated (no ranges or fixes to tell which)")
+                    self._decide(Decision(t, HEADING, str(finding) + what))
                     ekf = self.ekf
                     if ekf is not None:  # what the rate taught, read either way, forgotten
                         bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0

@@ -15,15 +15,12 @@ against: that sensor's rate is reversed, and :class:`mavhelm.nav.fusion.Fusion` 
 negated, says so, and forgets what it taught the filter. Votes go on with the rate as read,
 so one that agrees again is taken as it reads again.
 
-Which of the two is wrong the headings and rates alone cannot tell. Negated rather than left
-out: the rate is what tells a heading jump from a turn (Plaza1 with heading jumps and the
-rate reversed, seeds 1-2: 3.01/2.75 m RMS with the rate left out, 0.42/0.49 m with it
-negated; jumps alone 0.34/0.35 m). Where the heading itself is the one of the wrong sense (rarer:
-compasses read clockwise), the rate is negated to agree with it, and the two then turn
-against the track made good; the decision names both sensors and both conventions for the
-engineer to check (Plaza1 with its heading reversed: 9.00 m RMS before this check, 5.79 m
-with it, the LSQ 5.05 m: not met; telling which one is wrong from the track made good is
-left undone).
+Which of the two is wrong the headings and rates alone cannot tell: the owner asks the motion
+(:meth:`mavhelm.nav.fusion.Fusion._test_sense`) and takes neither meanwhile, then either
+keeps the rate negated or forgives it (``forgive``) and reads the heading the other way
+round. Negated rather than left out once told: the rate is what tells a heading jump from a
+turn (Plaza1 with heading jumps and the rate reversed, seeds 1-2: 3.01/2.75 m RMS with the
+rate left out, 0.42/0.49 m with it negated; jumps alone 0.34/0.35 m).
 
 Short intervals (one heading reading to the next) and clear turns only: a heading bias that
 wanders (even 180° within minutes: ~1°/s) moves a heading less in one interval than a turn
@@ -83,8 +80,9 @@ class Finding:
     def __str__(self) -> str:
         if self.reversed:
             return (f"the yaw rate {self.sensor} turns against the heading of "
-                    f"{self.heading} in {self.against} of the last {self.votes} turns: it is "
-                    f"taken negated (check both signs: pNav's yaw rate is anticlockwise-"
+                    f"{self.heading} in {self.against} of the last {self.votes} turns: one "
+                    f"of the two is of the wrong sense (check both signs: pNav's yaw rate is "
+                    f"anticlockwise-"
                     f"positive, a NED gyro's clockwise; S_YAW anticlockwise from east, "
                     f"S_HEADING clockwise from north)")
         return (f"the yaw rate {self.sensor} turns with the heading of {self.heading} "
