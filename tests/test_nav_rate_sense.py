@@ -98,3 +98,91 @@ def test_a_rate_forgiven_is_taken_as_it_reads_and_judged_afresh() -> None:
     unforgiven, _ = _weave(120.0, rate_sign=-1.0)
     unforgiven, again = _weave(300.0, sense=unforgiven, t0=120.0)
     assert [f.reversed for _, f in again] == [False]
+
+
+MISSION = """ProcessConfig = pNav
+{
+  X = EKF @ 2
+  Y = EKF @ 2
+  Yaw = EKF @ 2
+  Speed = EKF @ 2
+  SENSOR_XY = GPS -> gps @ 0,0,0 ~ 0.5
+  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
+  SENSOR_BODY_VEL = INS -> gyro @ 0,0,0 ~ 0.5
+  FIXEDSIDESLIP = 0 @ 0.3
+}
+"""
+
+
+def _boat(legs: list[float], *, weave: float = 30.0, seed: int = 2) -> list:
+    """A boat weaving in place for ``weave`` s (heading ±40°, ~10°/s), then 30 s legs at
+    2 m/s on each course of ``legs`` (deg, clockwise from north), turning at 15°/s between
+    them: compass and gyro at 10 Hz, a GPS (0.3 m) at 5 Hz, the truth."""
+    from mavhelm.core.bus import Message
+
+    rng = np.random.default_rng(seed)
+    out, t, x, y = [], 100.0, 0.0, 0.0
+    heading = legs[0]
+    plan = [(weave, None)] + [(30.0, c) for c in legs]
+    for seconds, course in plan:
+        for _ in range(round(seconds * 10)):
+            if course is None:
+                rate = 10.0 * math.cos((t - 100.0) / 2.5)  # deg/s clockwise
+                speed = 0.0
+            else:
+                step = math.remainder(course - heading, 360.0)
+                rate, speed = max(-15.0, min(15.0, step * 10.0)), 2.0
+            heading += rate * 0.1
+            x += speed * 0.1 * math.sin(math.radians(heading))
+            y += speed * 0.1 * math.cos(math.radians(heading))
+            t = round(t + 0.1, 6)
+            out += [Message("INS_YAW", math.radians(-heading) + rng.normal(0, 0.01), t, "log"),
+                    Message("INS_YAW_VEL", math.radians(-rate), t, "log"),
+                    Message("TRUTH_X", x, t, "log"), Message("TRUTH_Y", y, t, "log")]
+            if round(t * 10) % 2 == 0:
+                out += [Message("GPS_X", x + rng.normal(0, 0.3), t, "log"),
+                        Message("GPS_Y", y + rng.normal(0, 0.3), t, "log")]
+    return out
+
+
+def _replayed(log: list, fault: str | None):
+    from mavhelm.core.mission import parse_mission
+    from mavhelm.nav.faults import layout_of, with_fault
+    from mavhelm.nav.replay import replay
+
+    block = parse_mission(MISSION, "sense.moos").process("pNav")
+    assert block is not None
+    result = replay(block, with_fault(fault, log, layout_of(block)) if fault else log)
+    return result, [d.why for d in result.navigator.fusion.decisions]
+
+
+def test_the_courses_made_good_tell_a_reversed_compass_from_a_reversed_gyro() -> None:
+    """Found in the weave, told once the boat has run two courses: the reversed one is the
+    one taken the other way round, the other taken as it reads; the heading then follows
+    the truth again."""
+    log = _boat([0.0, 90.0, 180.0, 270.0, 0.0])
+    clean, said = _replayed(log, None)
+    assert not any("wrong sense" in why for why in said)
+    for fault, verdict in (("heading_reversed", "the heading of sensor compass turns against "
+                            "the courses made good between fixes"),
+                           ("yaw_rate_reversed", "the courses made good between fixes turn "
+                            "with the heading of sensor compass")):
+        result, said = _replayed(log, fault)
+        assert any("one of the two is of the wrong sense" in why
+                   and "neither is taken until the motion tells which" in why for why in said)
+        assert any(verdict in why for why in said), said
+        assert result.accuracy("NAV").rms < 2.0 * clean.accuracy("NAV").rms + 0.2, fault
+        final = result.final
+        assert final is not None
+        assert abs(math.degrees(math.remainder(final.yaw, 2 * math.pi))) < 10.0, fault
+
+
+def test_one_course_cannot_tell_and_the_rate_is_taken_negated_after_a_while() -> None:
+    """Weaving in place, then one course for longer than the motion is asked: nothing can
+    tell, so it says so and takes the rate negated, the heading as it reads, as before."""
+    from mavhelm.nav.fusion import SENSE_TIME
+
+    log = _boat([0.0] * round((SENSE_TIME + 60.0) / 30.0))
+    _, said = _replayed(log, "yaw_rate_reversed")
+    assert any(f"the motion did not tell in {SENSE_TIME:.0f} s" in why for why in said), said
+    assert not any("courses made good" in why for why in said)
