@@ -7,7 +7,13 @@ import math
 
 import numpy as np
 
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav.faults import layout_of, with_fault
+from mavhelm.nav.fusion import SENSE_TIME
 from mavhelm.nav.rate_sense import CONTRARY, VOTES, RateSense
+from mavhelm.nav.replay import ReplayResult, replay
+from tests.support.mission import EKF_GPS_COMPASS
 
 
 def _weave(seconds: float, rate_sign: float = 1.0, bias=lambda t: 0.0, hold=None,
@@ -100,26 +106,15 @@ def test_a_rate_forgiven_is_taken_as_it_reads_and_judged_afresh() -> None:
     assert [f.reversed for _, f in again] == [False]
 
 
-MISSION = """ProcessConfig = pNav
-{
-  X = EKF @ 2
-  Y = EKF @ 2
-  Yaw = EKF @ 2
-  Speed = EKF @ 2
-  SENSOR_XY = GPS -> gps @ 0,0,0 ~ 0.5
-  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0
-  SENSOR_BODY_VEL = INS -> gyro @ 0,0,0 ~ 0.5
-  FIXEDSIDESLIP = 0 @ 0.3
-}
-"""
+MISSION = ("ProcessConfig = pNav\n{" + EKF_GPS_COMPASS
+           + "  SENSOR_BODY_VEL = INS -> gyro @ 0,0,0 ~ 0.5\n  FIXEDSIDESLIP = 0 @ 0.3\n}\n")
+"""The EKF on GPS and compass, with a gyro's yaw rate and a sideslip constraint."""
 
 
-def _boat(legs: list[float], *, weave: float = 30.0, seed: int = 2) -> list:
+def _boat(legs: list[float], *, weave: float = 30.0, seed: int = 2) -> list[Message]:
     """A boat weaving in place for ``weave`` s (heading ±40°, ~10°/s), then 30 s legs at
     2 m/s on each course of ``legs`` (deg, clockwise from north), turning at 15°/s between
     them: compass and gyro at 10 Hz, a GPS (0.3 m) at 5 Hz, the truth."""
-    from mavhelm.core.bus import Message
-
     rng = np.random.default_rng(seed)
     out, t, x, y = [], 100.0, 0.0, 0.0
     heading = legs[0]
@@ -145,11 +140,7 @@ def _boat(legs: list[float], *, weave: float = 30.0, seed: int = 2) -> list:
     return out
 
 
-def _replayed(log: list, fault: str | None):
-    from mavhelm.core.mission import parse_mission
-    from mavhelm.nav.faults import layout_of, with_fault
-    from mavhelm.nav.replay import replay
-
+def _replayed(log: list[Message], fault: str | None) -> tuple[ReplayResult, list[str]]:
     block = parse_mission(MISSION, "sense.moos").process("pNav")
     assert block is not None
     result = replay(block, with_fault(fault, log, layout_of(block)) if fault else log)
@@ -180,8 +171,6 @@ def test_the_courses_made_good_tell_a_reversed_compass_from_a_reversed_gyro() ->
 def test_one_course_cannot_tell_and_the_rate_is_taken_negated_after_a_while() -> None:
     """Weaving in place, then one course for longer than the motion is asked: nothing can
     tell, so it says so and takes the rate negated, the heading as it reads, as before."""
-    from mavhelm.nav.fusion import SENSE_TIME
-
     log = _boat([0.0] * round((SENSE_TIME + 60.0) / 30.0))
     _, said = _replayed(log, "yaw_rate_reversed")
     assert any(f"the motion did not tell in {SENSE_TIME:.0f} s" in why for why in said), said
