@@ -238,13 +238,13 @@ class Fusion:
         """The body velocity sensors' yaw rates voted against the headings' turns: a rate of
         the wrong sense is negated (:mod:`mavhelm.nav.rate_sense`)."""
         self.reversed_headings: set[str] = set()
-        """Heading sensors whose sense the ranges found the wrong way round, where a rate
-        turned against them (:meth:`_test_sense`): their readings are taken negated."""
+        """Heading sensors the motion found read the wrong way round, where a rate turned
+        against them (:meth:`_test_sense`): their readings are taken negated."""
         self._sense_test: tuple[float, float, str, str] | None = None
-        """While a rate turns against a heading: (until when and when next the ranges are
+        """While a rate turns against a heading: (until when and when next the motion is
         asked which of the two is wrong, the rate, the heading sensor)."""
         self._sense_said: bool | None = None
-        """The ranges' last answer to it, which the next must confirm."""
+        """The motion's last answer to it, which the next must confirm."""
         self._heading_coupled = config.fixed_sideslip is not None
         """Whether the heading moves the position (a sideslip constraint, a body velocity with
         a speed): then the motion can tell a heading bias from a heading."""
@@ -429,16 +429,17 @@ class Fusion:
         vx, vy, w = e.x_vel, e.y_vel, e.yaw_vel
         body: tuple[float, float] | None = None
         reversed_ = self.rate_sense.reversed
+        _, _, unsure_rate, unsure_heading = self._sense_test or (0.0, 0.0, None, None)
         for ti, _, reading in newer:
             dt = ti - t
             if dt > 0:
                 x, y, yaw, t = x + vx * dt, y + vy * dt, yaw + w * dt, ti
             obs = reading.obs
-            if isinstance(obs, Yaw):
+            if isinstance(obs, Yaw) and reading.sensor.name != unsure_heading:
                 z = -obs.z if reading.sensor.name in self.reversed_headings else obs.z
                 yaw = z - e.yaw_bias
             elif isinstance(obs, BodyVelocity):
-                if obs.yaw_rate is not None:
+                if obs.yaw_rate is not None and _rate_label(reading) != unsure_rate:
                     w = -obs.yaw_rate if _rate_label(reading) in reversed_ else obs.yaw_rate
                 if obs.forward is not None:
                     body = (obs.forward, obs.starboard or 0.0)
@@ -706,8 +707,7 @@ class Fusion:
         until, next_at, rate, heading = test
         if t > until:
             self._sense_test, self._sense_said = None, None
-            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
-            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+            self._retake_heading()
             self._decide(Decision(t, HEADING, (
                 f"the motion did not tell in {SENSE_TIME:.0f} s which of the heading of "
                 f"sensor {heading} and the yaw rate {rate} turns the wrong way: the rate "
@@ -735,20 +735,26 @@ class Fusion:
             self.alignment.clear()
             if self._last_yaw is not None:
                 self._last_yaw = -self._last_yaw
-            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
-            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+            self._retake_heading()
             self._decide(Decision(t, HEADING, (
                 f"the heading of sensor {heading} turns against {told}, the yaw rate {rate} "
                 f"with it: the heading is the one of the wrong sense, taken negated from now "
                 f"on, the rate as it reads (check the heading's convention: S_YAW "
                 f"anticlockwise from east, S_HEADING clockwise from north)")))
         else:
-            bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
-            ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
+            self._retake_heading()
             self._decide(Decision(t, HEADING, (
                 f"{told} {turn} with the heading of sensor {heading}: the yaw rate {rate} "
                 f"is the one of the wrong sense, taken negated")))
         self._heading_after_sense(t, near, by_courses, restart=answer)
+
+    def _retake_heading(self) -> None:
+        """The heading taken again from the sensor's last reading (less the bias), what the
+        rate taught forgotten: the filter took neither while the sense was open."""
+        ekf = self.ekf
+        assert ekf is not None
+        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+        ekf.forget_turn(self._last_yaw - bias if self._last_yaw is not None else None)
 
     def _heading_after_sense(self, t: float, near: tuple[float, float],
                              by_courses: Sense | None, restart: bool) -> None:
@@ -760,10 +766,11 @@ class Fusion:
         bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
         if by_courses is None:
             found = self.range_alignment.estimate(near)
-            far = found is not None and abs(math.remainder(found.bias - bias, 2 * math.pi))
-            if found is not None and (restart or far >= RANGE_MIN_TURN):
-                self._heading_from_ranges(t, found, bias, restart or far > ALIGN_RESET)
-                return
+            if found is not None:
+                far = abs(math.remainder(found.bias - bias, 2 * math.pi))
+                if restart or far >= RANGE_MIN_TURN:
+                    self._heading_from_ranges(t, found, bias, restart or far > ALIGN_RESET)
+                    return
         elif restart or abs(math.remainder(by_courses.bias - bias, 2 * math.pi)) >= ALIGN_JUMP:
             if ekf.i_bias is None:
                 ekf = self._add_yaw_bias(t)
