@@ -98,6 +98,13 @@ the bit (Plaza1 tracks and covariances compared).
   added 0.9 % (3.150 G). Each hot path is already trimmed to the few numpy calls it needs;
   what is left is the Python each slice runs, spread over some thirty functions of 1–5 %
   each (py-spy), none worth a fifth of the time on its own.
+- The interpreter: the Makefile now builds the venv on the distribution's Python 3.11
+  (Debian's optimised build) where there is one, pyenv's source build of 3.11.7 before. The
+  same code, the machine quiet (load ≈ 0), one after the other: EKF predict+update 39–49 µs
+  → 29–30 µs; Plaza1 replay for a one-hour log 4.9–5.1 s → 4.5 s; the 20-task tick, three
+  runs each, per-tick minimum p99 0.93–1.05 ms either way, single runs' p99 1.33–1.90 ms
+  either way (this VM's noise, not the interpreter, sets the tick's p99). Results the same
+  to the bit (Plaza1 and five fault variants). A pure-Python loop: 0.42–0.44 s → 0.36 s.
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
