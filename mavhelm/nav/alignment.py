@@ -30,6 +30,11 @@ against the course. That offset has no course in it, none of the fixes' error (r
 LSQ fixes 5 m apart: courses 10-20° out, the offset to a degree), so runs agreeing on it
 across gaps make an estimate too: a steady offset, not a kick, once they span ``MIN_SPAN``.
 
+The same runs tell which way round the sensor reads (``sense``), where a yaw rate turned
+against it (:mod:`mavhelm.nav.rate_sense`): read the right way round, its offset from the
+courses holds across the vehicle's turns; the wrong way round, it turns twice as far as the
+vehicle.
+
 Pure logic: the navigator (:mod:`mavhelm.nav.fusion`) feeds it and decides when to use it.
 """
 

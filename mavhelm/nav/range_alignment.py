@@ -23,6 +23,11 @@ put the vehicle 5 m from it cost Plaza1's kicked compass 0.36 → 0.89 m on one 
 mostly of the robot standing still, fitted at χ² 1.3-1.9), for 2.5 → 1.4 m on the starts
 under way whose heading was learned too late to keep the position.
 
+Fitted with the headings negated too, the same track tells which way round the sensor reads
+(``sense``), where a yaw rate turned against it (:mod:`mavhelm.nav.rate_sense`): read the
+wrong way round, it bends the track the other way through every turn, and only negated does
+it fit.
+
 Pure logic: the navigator (:mod:`mavhelm.nav.fusion`) feeds it every reading and asks it only
 once it has a reason to doubt the heading (a re-initialisation, the filter found adrift, the
 heading doubted), so a healthy run pays nothing for it.
