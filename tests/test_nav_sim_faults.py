@@ -16,7 +16,9 @@ learned range offset, unlike the other beacons', is), 0.48 m with the beacons' s
 prior σ 1 m instead of 5 m (the beacon found at 52 s instead of 70 s; the other variants
 0.28-0.31 m either way). The gyro's yaw rate reversed: found at 6.2 s and negated, 0.29 m
 (0.62 m when it was only left out, the heading it had dragged for 6 s kept; before that, a
-gyro with nothing left of it restarted the filter 266 times)."""
+gyro with nothing left of it restarted the filter 266 times); now neither the gyro nor the
+compass is taken until the courses made good tell which turns the wrong way (48 s): 0.30 m,
+and the compass reversed instead 0.30 m."""
 
 from __future__ import annotations
 

@@ -111,7 +111,7 @@ def test_a_yaw_rate_or_a_heading_of_the_wrong_sense_is_told_apart_and_reported(r
     second of the robot's first turns, and taken negated: 0.42 m. Its heading reversed
     instead: 9.00 m, then 5.79 m with the rate negated to agree with it. Now the track the
     ranges fit tells which of the two turns the wrong way (at 87 s in both), and the filter
-    takes neither until it does: heading reversed 0.58 m, rate reversed 0.61 m (the robot
+    takes neither until it does: heading reversed 0.58 m, rate reversed 0.64 m (the robot
     turns in place before it moves, with neither)."""
     text = report["yaw_rate_reversed"]
     assert re.search(r"the yaw rate ODOM_YAW_VEL \(sensor \w+\) turns against the heading of "
