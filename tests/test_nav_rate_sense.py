@@ -175,3 +175,23 @@ def test_one_course_cannot_tell_and_the_rate_is_taken_negated_after_a_while() ->
     _, said = _replayed(log, "yaw_rate_reversed")
     assert any(f"the motion did not tell in {SENSE_TIME:.0f} s" in why for why in said), said
     assert not any("courses made good" in why for why in said)
+
+
+def test_without_ranges_or_fixes_nothing_can_tell_and_the_rate_is_negated_at_once() -> None:
+    """Dead reckoning on compass and gyro from a start, no position data: the motion cannot
+    be asked, so the rate is taken negated at once, as before the motion was asked, and the
+    decision says why."""
+    mission = ("ProcessConfig = pNav\n{\n  X = EKF @ 2\n  Y = EKF @ 2\n  Yaw = EKF @ 2\n"
+               "  SENSOR_ORIENTATION = INS -> compass @ 0,0,0 ~ 1.0\n"
+               "  SENSOR_BODY_VEL = INS -> gyro @ 0,0,0 ~ 0.5\n"
+               "  EKF_X = 0\n  EKF_Y = 0\n  EKF_SIGMA_XY = 1\n}\n")
+    block = parse_mission(mission, "dead_reckoning.moos").process("pNav")
+    assert block is not None
+    log = [m for m in _boat([0.0, 90.0]) if not m.name.startswith("GPS")]
+    result = replay(block, with_fault("yaw_rate_reversed", log, layout_of(block)))
+    said = [d.why for d in result.navigator.fusion.decisions]
+    found = [why for why in said if "one of the two is of the wrong sense" in why]
+    assert len(found) == 1 and found[0].endswith(
+        "the rate is taken negated (no ranges or fixes to tell which)"), said
+    assert result.navigator.fusion.rate_sense.reversed == {"INS_YAW_VEL (sensor gyro)"}
+    assert not any("neither is taken" in why or "courses made good" in why for why in said)
