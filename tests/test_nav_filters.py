@@ -53,6 +53,7 @@ class Rig:
         now = self.clock.now()
         self.nav.on_mail(self.bus.fetch(self.nav.name), now)
         self.nav.iterate(now)
+        self.nav.idle()  # as the companion's loop does: the .olog/.xlog lines are written
         self.out.extend(m for m in self.bus.fetch("listener") if m.source == "pNav")
 
     def last(self, name: str) -> Message | None:

@@ -38,6 +38,11 @@ class Message(NamedTuple):
         return self.value if isinstance(self.value, str) else f"{self.value:g}"
 
 
+_new_message = tuple.__new__
+"""A Message built without the named tuple's own constructor, a Python function call that
+cost more than the tuple (~200 against ~70 ns; a busy tick posts dozens)."""
+
+
 class Bus:
     """Posts variables and holds each subscriber's mail until it fetches it."""
 
@@ -64,7 +69,8 @@ class Bus:
     ) -> Message:
         if type(value) is not float and not isinstance(value, str):  # a float as it is
             value = float(value)
-        msg = Message(name, value, self.clock.now() if time is None else time, source)
+        msg = _new_message(Message, (name, value, self.clock.now() if time is None else time,
+                                     source))
         self._latest[name] = msg
         route = self._routes.get(name)
         if route is None:

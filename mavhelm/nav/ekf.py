@@ -118,7 +118,6 @@ from mavhelm.nav.settings import (
     EKF_SIGMA_HEADING,
     EKF_SIGMA_XY,
     EKF_SIGMA_Z,
-    EKF_SPEED_SCALE,
     EKF_TIDE,
     EKF_TIME_SIGMA,
     EKF_XY_DYNAMICS,
@@ -314,7 +313,10 @@ class EKFConfig:
     """EKF_YAW_SCALE where the heading is a body-velocity sensor's (see above)."""
     sigma_yaw_scale: float = 0.05
     yaw_scale_noise: float = 1e-5
-    estimate_speed_scale: bool = setting(EKF_SPEED_SCALE)
+    estimate_speed_scale: bool = False
+    """Whether the filter holds the speed-scale state: the navigator adds it where
+    EKF_SPEED_SCALE says, at the first speed a body-velocity sensor gives
+    (:meth:`with_states`)."""
     sigma_speed_scale: float = 0.1
     speed_scale_noise: float = 1e-5
     estimate_range_scale: bool = setting(EKF_RANGE_SCALE)
@@ -1247,17 +1249,24 @@ class EKF:
         compass the rate learns the readings' lag in turns as drift, which costs little (a
         20 s GPS gap across a corner, simulated: 3.7 m worst error without it, 3.8 m with
         it)."""
-        if self.i_bias is not None:
+        return self.with_states(estimate_yaw_bias=True)
+
+    def with_states(self, **added: bool) -> EKF:
+        """This filter with the hidden states that ``added`` switches on (``EKFConfig``
+        fields, e.g. ``estimate_speed_scale=True``): each new one at zero with its prior 1-σ,
+        uncorrelated; every other state and its covariance carried over. Itself if it holds
+        them already."""
+        config = replace(self.config, **added)
+        if config == self.config:
             return self
-        twin = EKF(self.t, 0.0, 0.0, beacons=self.beacons.values(),
-                   config=replace(self.config, estimate_yaw_bias=True))
+        twin = EKF(self.t, 0.0, 0.0, beacons=self.beacons.values(), config=config)
         where = {name: i for i, name in enumerate(twin.state_names())}
         kept = [where[name] for name in self.state_names()]
         twin.kf.x[kept, 0] = self.kf.x[:, 0]
         twin.kf.P[np.ix_(kept, kept)] = self.kf.P
         twin.warnings, twin.rate_resets, twin.recoveries = (self.warnings, self.rate_resets,
                                                              self.recoveries)
-        twin._good = self._good
+        twin._good, twin._wander, twin.along_track = self._good, self._wander, self.along_track
         return twin
 
     def state_names(self) -> list[str]:

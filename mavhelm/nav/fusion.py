@@ -96,6 +96,7 @@ from mavhelm.nav.sensors import (
 )
 from mavhelm.nav.settings import (
     EKF_LAG,
+    EKF_SPEED_SCALE,
     LSQ_OFFSET,
     LSQ_TIMEOUT,
     LSQ_WINDOW,
@@ -181,6 +182,10 @@ class FusionConfig:
     fixed_tide: FixedValue | None = setting(FIXEDTIDE)
     fixed_sideslip: FixedValue | None = setting(FIXEDSIDESLIP)
     rejection: tuple[RejectionRule, ...] = setting(LSQ_REJECTION)
+    speed_scale: bool = setting(EKF_SPEED_SCALE)
+    """Add the body-velocity speed-scale state at the first speed a body-velocity sensor
+    gives (:meth:`Fusion._add_speed_scale`); the navigator says so only where a position
+    sensor makes the scale observable."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -275,8 +280,10 @@ class Fusion:
         self.nis: dict[str, list[float]] = {}
         """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
         freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
-        self.olog: list[str] = []
-        self.xlog: list[str] = []
+        self._olog: list[str | OlogEntry] = []
+        self._xlog: list[str | XlogEntry] = []
+        """The .olog and .xlog lines since they were last taken: in a tick only what they
+        need is kept, formatted once taken, in the loop's idle time (:meth:`take_olog`)."""
         self.warnings: list[str] = []
         self.counts = {"accepted": 0, "rejected": 0, "late": 0, "future": 0, "outlier": 0,
                        "waiting": 0, "offline": 0}
@@ -342,7 +349,7 @@ class Fusion:
         if self.ekf is None:
             return None
         if self.logging:
-            self._xlog()
+            self._xlog_row()
         self.warnings.extend(self.ekf.warnings)
         self.ekf.warnings.clear()
         return self._forecast(now)
@@ -375,7 +382,7 @@ class Fusion:
             return
         for v in self.ekf.update(fixed).verdicts:
             if not v.accepted:
-                self.olog.append(f"{horizon:.3f} fixed {type(v.obs).__name__} "
+                self._olog.append(f"{horizon:.3f} fixed {type(v.obs).__name__} "
                                  f"{describe(v.obs)} rejected {v.d2:.2f}")
 
     def _restart(self, exc: Exception) -> None:
@@ -409,9 +416,9 @@ class Fusion:
         self.new_decisions.append(decision)
         self.warnings.append(str(decision))
         line = f"# {decision.t:.3f} decision {decision}"
-        self.olog.append(line)
+        self._olog.append(line)
         if self._xlog_header:
-            self.xlog.append(line)
+            self._xlog.append(line)
 
     def _forecast(self, now: float) -> Estimate:
         """The lagged estimate brought forward to ``now`` (spec 2.2.7), the filter itself left
@@ -812,6 +819,9 @@ class Fusion:
         """The EKF's update on a slice, each reading's fate logged and watched."""
         ekf = self.ekf
         assert ekf is not None
+        if self.config.speed_scale and ekf.i_speed is None \
+                and any(_has_speed(r.obs) for r in kept):
+            ekf = self._add_speed_scale(t)
         result = ekf.update([self._weighted(self._brought_forward(r), r.sensor.name)
                              for r in kept])
         self._note_coupling(kept)
@@ -984,6 +994,18 @@ class Fusion:
         self._xlog_header = False  # the .xlog's columns change: a new header line
         return self.ekf
 
+    def _add_speed_scale(self, t: float) -> EKF:
+        """The body-velocity speeds' scale error as a state, from the first speed a sensor
+        gives, where position data observe it (``EKF_SPEED_SCALE``): a wheel odometer is
+        seldom within a few per cent of its wheel size (Plaza1's odometer made 10 % long or
+        short: 1.9 m RMS without the state, 0.36 m with it), a DVL's sound speed off by as
+        much as the water differs from what it was told. Kept by every later boot."""
+        assert self.ekf is not None
+        self.ekf = self.ekf.with_states(estimate_speed_scale=True)
+        self.ekf_config = self.ekf.config
+        self._xlog_header = False  # the .xlog's columns change: a new header line
+        return self.ekf
+
     def _watch(self, fix: Fix) -> None:
         """The LSQ's checks of the EKF (spec 2.2.9) on one fix: a failure raises, a
         sustained disagreement re-initialises the EKF to the fix."""
@@ -1094,31 +1116,55 @@ class Fusion:
     # ------------------------------------------------------------------ logs
 
     def _log(self, r: Reading, fate: str, detail: str = "", d2: float | None = None) -> None:
-        """Count a reading's fate and, when logging, write its .olog line (``d2``: its χ²
-        distance, formatted only then)."""
+        """Count a reading's fate and, when logging, keep its .olog line (``d2``: its χ²
+        distance)."""
         self.counts[fate] = self.counts.get(fate, 0) + 1
-        if not self.logging:
-            return
-        if d2 is not None:
-            detail = f"{d2:.2f}"
-        self.olog.append(f"{r.obs.t:.3f} {r.sensor.name} {r.sensor.type} "
-                         f"{describe(r.obs)} {fate}{' ' + detail if detail else ''}")
+        if self.logging:
+            self._olog.append((r.obs.t, r.sensor.name, r.sensor.type, r.obs, fate, detail, d2))
 
     def state_names(self) -> list[str]:
         return [] if self.ekf is None else self.ekf.state_names()
 
-    def _xlog(self) -> None:
+    def _xlog_row(self) -> None:
         ekf = self.ekf
         assert ekf is not None
         if not self._xlog_header:
             self._xlog_header = True
             names = self.state_names()
-            self.xlog.append("# t " + " ".join(names) + " | "
-                             + " ".join(f"SIGMA_{n}" for n in names))
-        x = ekf.x.ravel().tolist()
-        sigma = [math.sqrt(max(v, 0.0)) for v in ekf.P.diagonal().tolist()]
-        self.xlog.append(f"{ekf.t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
-                         + " ".join(f"{v:.4g}" for v in sigma))
+            self._xlog.append("# t " + " ".join(names) + " | "
+                              + " ".join(f"SIGMA_{n}" for n in names))
+        self._xlog.append((ekf.t, ekf.x.ravel().tolist(), ekf.P.diagonal().tolist()))
+
+    def take_olog(self) -> list[str]:
+        """The .olog lines kept since the last call, formatted now."""
+        lines = [e if isinstance(e, str) else _olog_line(*e) for e in self._olog]
+        self._olog = []
+        return lines
+
+    def take_xlog(self) -> list[str]:
+        """The .xlog lines kept since the last call, formatted now."""
+        lines = [e if isinstance(e, str) else _xlog_line(*e) for e in self._xlog]
+        self._xlog = []
+        return lines
+
+
+OlogEntry = tuple[float, str, str, Observation, str, str, float | None]
+"""A reading's .olog line unformatted: time, sensor name and type, observation, fate, detail,
+χ² distance (None: the detail stands)."""
+XlogEntry = tuple[float, list[float], list[float]]
+"""A tick's .xlog line unformatted: time, state, the covariance's diagonal."""
+
+
+def _olog_line(t: float, name: str, kind: str, obs: Observation, fate: str, detail: str,
+               d2: float | None) -> str:
+    if d2 is not None:
+        detail = f"{d2:.2f}"
+    return f"{t:.3f} {name} {kind} {describe(obs)} {fate}{' ' + detail if detail else ''}"
+
+
+def _xlog_line(t: float, x: list[float], variances: list[float]) -> str:
+    return (f"{t:.3f} " + " ".join(f"{v:.5g}" for v in x) + " | "
+            + " ".join(f"{math.sqrt(max(v, 0.0)):.4g}" for v in variances))
 
 
 def _has_speed(obs: Observation) -> bool:

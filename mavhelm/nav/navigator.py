@@ -53,6 +53,7 @@ from mavhelm.nav.sensors import (
     FIXEDSIDESLIP,
     FIXEDTIDE,
     LBL_SOUND_SPEED,
+    POSITION_TYPES,
     SENSOR_TYPES,
     SOUND_SPEED,
     SensorLine,
@@ -195,7 +196,9 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
                       velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None,
                       estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
-    config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings))
+    positions = any(s.type in POSITION_TYPES for s in sensors)
+    config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
+                         speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions)
     return sensors, Fusion(config)
 
 
@@ -415,8 +418,26 @@ class Navigator(App):
                 self.notify("NAV_WARNING", warning)
 
     def idle(self) -> None:
+        """The .olog/.xlog lines of the tick formatted, written and flushed: work that can
+        wait until the commands are out."""
+        self.write_logs()
         if self.log is not None:
             self.log.flush()
+
+    def write_logs(self) -> None:
+        """The .olog/.xlog lines kept since the last call, formatted and handed to the log
+        (a replay calls it each tick, without flushing)."""
+        fusion = self.fusion
+        if self.log is None or fusion is None:
+            return
+        olog, xlog = fusion.take_olog(), fusion.take_xlog()
+        if olog:
+            self.log.olog(olog)
+        if xlog:
+            self.log.xlog(xlog)
+
+    def close(self) -> None:
+        self.write_logs()
 
     def _run_filters(self, now: float) -> None:
         fusion = self.fusion
@@ -443,13 +464,6 @@ class Navigator(App):
             self.failure_posted = True
             self.notify(NAVIGATION_FAILURE, fusion.failure)
             self.notify(END_MISSION, f"navigation failure: {fusion.failure}")
-        if self.log is not None:
-            if fusion.olog:
-                self.log.olog(fusion.olog)
-            if fusion.xlog:
-                self.log.xlog(fusion.xlog)
-        fusion.olog.clear()
-        fusion.xlog.clear()
 
     def _publish(self, e: Estimate, now: float) -> None:
         values = {"EKF_X": e.x, "EKF_Y": e.y, "EKF_YAW": e.yaw, "EKF_SPEED": e.speed,

@@ -233,6 +233,7 @@ def replay(block: Block, messages: Iterable[Message], *, period: float = 0.1,
             i += 1
         nav.on_mail(bus.fetch(nav.name), now)
         nav.iterate(now)
+        nav.write_logs()
         if nav.fusion is not None and nav.fusion.ekf is not None:
             covariance.take(nav.fusion.ekf)
         ticks += 1

@@ -308,6 +308,10 @@ class Reading:
     (:meth:`Fusion._brought_forward`)."""
 
 
+POSITION_TYPES: Final = frozenset({"XY", "LBL", "RANGE"})
+"""Sensor types whose data fix the position: against them a body velocity's scale shows."""
+
+
 def integrated_sources(sensors: Iterable[SensorSpec]) -> set[str]:
     """Sources that give a heading and a body velocity both: that heading is the body
     velocity's yaw rate integrated (an odometer, a gyro), and shares its scale error."""

@@ -78,9 +78,11 @@ EKF_YAW_SCALE = Param("EKF_YAW_SCALE", Boolean(), True, "", "with the heading-bi
                       "yaw rate's scale error: the heading's error then grows with each turn "
                       "(an odometer's wheel base), which a drift in time does not follow",
                       attr="ekf_yaw_scale")
-EKF_SPEED_SCALE = Param("EKF_SPEED_SCALE", Boolean(), False, "", "learn a scale error of the "
+EKF_SPEED_SCALE = Param("EKF_SPEED_SCALE", Boolean(), True, "", "learn a scale error of the "
                         "body-velocity sensors' speeds, shared by them (a wheel odometer's "
-                        "wheel size, a DVL's sound speed); needs a position sensor",
+                        "wheel size, a DVL's sound speed): the state is added at the first "
+                        "speed a body-velocity sensor gives, where an XY, LBL or RANGE sensor "
+                        "observes it (false: the speeds are taken at their word)",
                         attr="ekf_speed_scale")
 _TIDE_IN_METRES = ("in the original pNav EKF_TIDE is the start tide in metres, which mavhelm "
                    "does not take; here it says whether the tide is estimated")

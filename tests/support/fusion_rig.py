@@ -34,9 +34,11 @@ class Track:
 
 
 def replay(observations: list[Observation], beacons: list[Beacon], *,
-           config: EKFConfig | None = None, start: Start | None = None) -> Track:
+           config: EKFConfig | None = None, start: Start | None = None,
+           speed_scale: bool = True) -> Track:
+    """``speed_scale``: the odometry's scale learned (EKF_SPEED_SCALE, the default)."""
     fusion = Fusion(FusionConfig(ekf=config or EKFConfig(), beacons=tuple(beacons),
-                                 start=start, lsq_timeout=None))
+                                 start=start, lsq_timeout=None, speed_scale=speed_scale))
     rows, warnings = [], []
     ordered = sorted(observations, key=lambda o: o.t)
     i = 0
