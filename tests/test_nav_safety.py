@@ -166,10 +166,12 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
     assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_jumps",
                            "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
-                           "gps_glitches", "yaw_rate_reversed", "heading_reversed"}
+                           "gps_glitches", "yaw_rate_reversed", "heading_reversed",
+                           "speed_scale"}
     for name in FAULTS:
         # no odometer's heading, no body velocity sensor
-        assert applies(name, LAYOUT) is (name not in ("heading_scale", "yaw_rate_reversed"))
+        assert applies(name, LAYOUT) is (name not in ("heading_scale", "yaw_rate_reversed",
+                                                      "speed_scale"))
         assert with_fault(name, log, LAYOUT, seed=7) == with_fault(name, log, LAYOUT, seed=7)
     wander = [m.double for m in with_fault("heading_wander", log, LAYOUT)
               if m.name == "C_HEADING"]

@@ -63,10 +63,13 @@ def _fault_name(text: str) -> str:
 
 def replay_files(mission_path: str | Path, log_path: str | Path, *, period: float = 0.1,
                  nav_log: str | Path | None = None, write_nav_log: bool = True,
-                 fault: str | None = None, seed: int = 1) -> tuple[ReplayResult, float]:
+                 fault: str | None = None, seed: int = 1
+                 ) -> tuple[ReplayResult, float, bool]:
     """Replay ``log_path`` through the mission's pNav, with ``fault`` made on it if given;
-    returns the result and the wall seconds the replay took (reading the log not
-    included). The nav logs of a fault's run are named after it."""
+    returns the result, the wall seconds the replay took (reading the log not included) and
+    whether the fault changed nothing in the log (``applies`` knows the mission, not the
+    log: a gyro declared as a body-velocity sensor gives no speed to scale). The nav logs of
+    a fault's run are named after it."""
     mission = load_mission(mission_path)
     block = mission.process("pNav")
     if block is None:
@@ -76,8 +79,11 @@ def replay_files(mission_path: str | Path, log_path: str | Path, *, period: floa
         messages = bus_messages_from_tlog(log_path, mission)
     else:
         messages = read_alog(log_path)
+    unchanged = False
     if fault is not None:
-        messages = with_fault(fault, messages, layout_of(block), seed)
+        faulted = with_fault(fault, messages, layout_of(block), seed)
+        unchanged = faulted == sorted(messages, key=lambda m: m.time)
+        messages = faulted
     sink = None
     if write_nav_log:
         stem = f"{log_path.stem}_replay" + (f"_{fault}" if fault else "")
@@ -92,7 +98,7 @@ def replay_files(mission_path: str | Path, log_path: str | Path, *, period: floa
     finally:
         if sink is not None:
             sink.close()
-    return result, time.perf_counter() - started
+    return result, time.perf_counter() - started, unchanged
 
 
 def run(args: argparse.Namespace) -> int:
@@ -138,16 +144,17 @@ def _replay_report(job: tuple[argparse.Namespace, str | None],
     were already read once without one; the ``first`` run raises it."""
     args, fault = job
     try:
-        result, seconds = replay_files(args.mission, args.log, period=args.period,
-                                       nav_log=args.nav_log,
-                                       write_nav_log=not args.no_nav_log, fault=fault,
-                                       seed=args.seed)
+        result, seconds, unchanged = replay_files(
+            args.mission, args.log, period=args.period, nav_log=args.nav_log,
+            write_nav_log=not args.no_nav_log, fault=fault, seed=args.seed)
     except Exception as exc:  # noqa: BLE001 - a worker's error must reach the report whole
         if first:
             raise
         return [f"mavhelm nav replay: the {fault} run failed: {exc}"], True
     speedup = result.span / seconds if seconds > 0 else float("inf")
-    return ([*result.report(),
+    said = [f"the fault {fault} finds nothing to act on in this log: the run is the log as "
+            "recorded"] if unchanged else []
+    return ([*said, *result.report(),
              f"replay took {seconds:.2f} s of wall time ({speedup:.0f}x the log's duration)"],
             result.failure is not None)
 

@@ -26,6 +26,8 @@ those real vehicles meet:
                        upside down, a rate logged clockwise-positive)
 ``heading_reversed``   the orientation sensor read the wrong way round, about an axis drawn at
                        random (a compass's clockwise heading given as an anticlockwise yaw)
+``speed_scale``        the body velocity sensors' speeds 5–10 % long or short (a worn wheel, a
+                       tyre's pressure, a DVL told the wrong sound speed)
 =====================  =======================================================================
 
 Faults join with ``+`` to be made on one log together (``heading_wander+heading_jumps``).
@@ -264,6 +266,13 @@ def heading_reversed(messages: list[Message], layout: Layout,
             for m in messages]
 
 
+def speed_scale(messages: list[Message], layout: Layout,
+                rng: np.random.Generator) -> list[Message]:
+    k = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.05, 0.10))
+    return [m._replace(value=(1.0 + k) * m.double)
+            if _is(m, layout.body_velocity, "VX_BODY", "VY_BODY") else m for m in messages]
+
+
 def _truth(messages: list[Message]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     xs = {m.time: m.double for m in messages if m.name == TRUTH[0] and m.is_double}
     ys = {m.time: m.double for m in messages if m.name == TRUTH[1] and m.is_double}
@@ -283,6 +292,7 @@ FAULTS: dict[str, FaultMaker] = {
     "gps_glitches": gps_glitches,
     "yaw_rate_reversed": yaw_rate_reversed,
     "heading_reversed": heading_reversed,
+    "speed_scale": speed_scale,
 }
 """Every fault by name, in the order a report lists them."""
 
@@ -313,7 +323,7 @@ def _applies(name: str, layout: Layout) -> bool:
         return bool(layout.ranging)
     if name == "beacon_moved":
         return bool(layout.ranging and layout.beacons)
-    if name == "yaw_rate_reversed":
+    if name in ("yaw_rate_reversed", "speed_scale"):
         return bool(layout.body_velocity)
     return bool(layout.position)
 
