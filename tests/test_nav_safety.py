@@ -67,6 +67,11 @@ def test_lsq_timeout_is_a_failure_when_unobservable_not_when_only_inconsistent()
     assert safety.timed_out(29.0, 3, None, True) is None
     failure = safety.timed_out(31.0, 3, None, True)
     assert failure is not None and failure.kind == FAILED and "LSQTimeOut 30 s" in failure.why
+    sparse = FilterSafety(20.0, 30.0, 20.0)
+    sparse.start(0.0)
+    said = sparse.timed_out(31.0, 3, None, True, window=5.0)  # the remedy named
+    assert said is not None and "3 beacons within one LSQ_WINDOW (5 s)" in said.why
+    assert "a longer LSQ_WINDOW, or LSQTimeOut = NEVER" in said.why
     heard = safety.timed_out(31.0, 3, 25.0, True)  # beacons heard, fixes refused, EKF on
     assert heard is not None and heard.kind == LSQ_TRUST
     assert safety.timed_out(32.0, 3, 25.0, True) is None  # said once

@@ -166,12 +166,14 @@ class FilterSafety:
         return None
 
     def timed_out(self, horizon: float, observable: int, last_attempt: float | None,
-                  ekf_running: bool) -> Decision | None:
+                  ekf_running: bool, window: float | None = None) -> Decision | None:
         """No LSQ fix for ``lsq_timeout`` seconds: a failure (``observable``: the beacons a
-        fix needs, for the message) — unless the LSQ did hear enough beacons within that time
-        (``last_attempt``) and only its consistency test refused the fixes while the EKF
-        runs: then the problem is observable, a beacon or the ranges are wrong, and the EKF
-        (which learns each beacon's offset) carries on with the LSQ not trusted."""
+        fix needs, ``window`` the LSQ's, for the message: ranges too sparse to reach them in
+        one window never make a fix, however well the EKF navigates on them) — unless the
+        LSQ did hear enough beacons within that time (``last_attempt``) and only its
+        consistency test refused the fixes while the EKF runs: then the problem is
+        observable, a beacon or the ranges are wrong, and the EKF (which learns each
+        beacon's offset) carries on with the LSQ not trusted."""
         if self.lsq_timeout is None or self.last_fix_time is None:
             return None
         silent = horizon - self.last_fix_time
@@ -186,6 +188,10 @@ class FilterSafety:
             return Decision(horizon, LSQ_TRUST, f"no consistent LSQ fix for {silent:.0f} s "
                             f"though {observable} beacons are heard: a beacon or its ranges "
                             "are wrong; the LSQ is not trusted to watch the EKF")
+        within = "" if window is None else f" within one LSQ_WINDOW ({window:g} s)"
+        remedy = "" if window is None else (
+            " (ranges sparser than that: a longer LSQ_WINDOW, or LSQTimeOut = NEVER where the "
+            "EKF may navigate on them alone)")
         return Decision(horizon, FAILED, f"no LSQ fix for {silent:.0f} s (LSQTimeOut "
-                        f"{self.lsq_timeout:g} s): ranges to {observable} beacons are needed; "
-                        "navigation is unobservable")
+                        f"{self.lsq_timeout:g} s): ranges to {observable} beacons{within} are "
+                        f"needed; navigation is unobservable{remedy}")

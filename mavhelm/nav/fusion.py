@@ -1100,7 +1100,7 @@ class Fusion:
         if self.lsq is None:
             return
         decision = self.safety.timed_out(horizon, self.lsq.observable, self.lsq.last_attempt,
-                                         self.ekf is not None)
+                                         self.ekf is not None, self.lsq.window)
         if decision is not None and decision.kind == FAILED:
             raise NavigationFailure(decision.why)
         if decision is not None:
