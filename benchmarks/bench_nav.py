@@ -105,6 +105,14 @@ the bit (Plaza1 tracks and covariances compared).
   runs each, per-tick minimum p99 0.93–1.05 ms either way, single runs' p99 1.33–1.90 ms
   either way (this VM's noise, not the interpreter, sets the tick's p99). Results the same
   to the bit (Plaza1 and five fault variants). A pure-Python loop: 0.42–0.44 s → 0.36 s.
+- The speed-scale state on by default (added at the DVL's first speed: one state more in
+  this tick's filter) and pNav's .olog/.xlog lines formatted in the idle time instead of the
+  tick (their values kept, the lines the same byte for byte), a bus Message built with
+  ``tuple.__new__``: under callgrind, 600 ticks of the rig (simulator included) 8.303 G →
+  8.275 G instructions; formatting the logs had cost the tick ~110 k instructions (~4 %).
+  Timed the same morning on this VM: single runs' p99 1.10–1.13 ms in a quiet hour (the
+  work, per-tick minimum, 0.78 ms), 1.43–1.95 ms an hour later with every app's median
+  15 % slower (the work 0.95 ms): the host sets the tick's p99 more than the code does.
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
