@@ -532,3 +532,26 @@ def test_forget_turn_takes_the_heading_and_rate_back_to_their_priors() -> None:
         assert ekf.P[i, i] == pytest.approx(sigma**2)
         assert np.count_nonzero(ekf.P[i]) == 1
     np.linalg.cholesky(ekf.P)  # still positive definite
+
+
+def test_a_held_speed_scale_is_considered_not_learned() -> None:
+    """``hold_speed_scale`` (the fusion holds it while a yaw rate or heading may turn the wrong
+    way): a speed that disagrees with the filter's velocity moves the velocity, not the
+    scale, whose uncertainty still widens the speed's innovation; the covariance stays
+    symmetric and positive definite (the non-optimal gain's full update)."""
+    def moved(hold: bool) -> tuple[EKF, float]:
+        ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_speed_scale=True))
+        ekf.update(BodyVelocity(0.0, forward=2.0, sigma_forward=0.05))
+        before = ekf.kf.x.item(ekf.i_speed)
+        ekf.hold_speed_scale = hold
+        ekf.predict(0.1)
+        ekf.update(BodyVelocity(0.1, forward=2.6, sigma_forward=0.05))
+        return ekf, ekf.kf.x.item(ekf.i_speed) - before
+    held, change = moved(True)
+    assert change == 0.0
+    learned, change_free = moved(False)
+    assert abs(change_free) > 1e-4
+    P = held.kf.P
+    assert np.allclose(P, P.T) and np.all(np.linalg.eigvalsh(P) > 0)
+    assert P[held.i_speed, held.i_speed] == pytest.approx(
+        learned.config.sigma_speed_scale**2, rel=0.5)  # not shrunk by what it did not learn

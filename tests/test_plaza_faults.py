@@ -115,8 +115,9 @@ def test_a_yaw_rate_or_a_heading_of_the_wrong_sense_is_told_apart_and_reported(r
     instead: 9.00 m, then 5.79 m with the rate negated to agree with it. Now the track the
     ranges fit tells which of the two turns the wrong way (at 87 s in both), and the filter
     takes neither until it does: heading reversed 0.58 m, rate reversed 0.64 m (the robot
-    turns in place before it moves, with neither); 0.59 and 0.83 m with the odometer's
-    speed scale learned, the default since."""
+    turns in place before it moves, with neither); 0.59 and 0.66 m with the odometer's
+    speed scale learned, the default since, and held while the sense is open (0.83 m for
+    the rate learning it meanwhile)."""
     text = report["yaw_rate_reversed"]
     assert re.search(r"the yaw rate ODOM_YAW_VEL \(sensor \w+\) turns against the heading of "
                      r"sensor \w+ \(ODOM\)[^\n]*neither is taken until the motion tells which",

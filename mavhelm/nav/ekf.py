@@ -636,6 +636,10 @@ class EKF:
         """The share of the XY acceleration noise along the bow (``velocity_follows_heading``):
         ``ALONG_TRACK`` while the vehicle cruises; its owner sets 1 while it starts or stops,
         when the speed does change fast."""
+        self.hold_speed_scale = False
+        """Keep the speed scale where it is (a Schmidt "consider" state: its uncertainty
+        still counts, the updates leave it alone): its owner holds it while the heading is
+        in question, when the track's errors would be taken as the speeds' scale."""
         self._eye = np.eye(self.dim)
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
@@ -992,11 +996,18 @@ class EKF:
             S_inv = _inv(Ss)
         K = np.dot(PHts, S_inv)
         kf = self.kf
+        held = self.hold_speed_scale and self.i_speed is not None
+        if held:
+            K[self.i_speed, :] = 0.0
         state = [a + b for a, b in zip(x, np.dot(K, yi).tolist(), strict=True)]  # x + K y
-        # P − K S Kᵀ (= P − K (P Hᵀ)ᵀ), symmetrised by _tidy: one product instead of the Joseph
-        # form's four, which on this filter's well-conditioned updates gives the same P to
-        # 1e-12 (pinned by a test) at a third of the cost
-        kf.P = kf.P - np.dot(K, PHts.T)
+        if held:  # a gain not the optimal one: P − K (P Hᵀ)ᵀ − (P Hᵀ) Kᵀ + K S Kᵀ
+            KPHt = np.dot(K, PHts.T)
+            kf.P = kf.P - KPHt - KPHt.T + np.dot(np.dot(K, Ss), K.T)
+        else:
+            # P − K S Kᵀ (= P − K (P Hᵀ)ᵀ), symmetrised by _tidy: one product instead of the
+            # Joseph form's four, which on this filter's well-conditioned updates gives the
+            # same P to 1e-12 (pinned by a test) at a third of the cost
+            kf.P = kf.P - np.dot(K, PHts.T)
         kf.K, kf.y, kf.S, kf.SI = K, yi, Ss, S_inv
         self._last_r = r
         self._tidy(state)
@@ -1267,6 +1278,7 @@ class EKF:
         twin.warnings, twin.rate_resets, twin.recoveries = (self.warnings, self.rate_resets,
                                                              self.recoveries)
         twin._good, twin._wander, twin.along_track = self._good, self._wander, self.along_track
+        twin.hold_speed_scale = self.hold_speed_scale
         return twin
 
     def state_names(self) -> list[str]:

@@ -477,6 +477,8 @@ class Fusion:
             cruising = self.heading_watch.under_way_for(t) >= UNDER_WAY_TIME
             # no heading to take the speed along while it is open which way the sensor reads
             self.ekf.along_track = ALONG_TRACK if cruising and self._sense_test is None else 1.0
+            # nor is the speeds' scale learned from a track the heading may have turned
+            self.ekf.hold_speed_scale = self._sense_test is not None
             self.ekf.advance(t)
             x = self.ekf.x
             self.survey_check.move(t, x.item(I_X), x.item(I_Y), x.item(I_VX), x.item(I_VY))
