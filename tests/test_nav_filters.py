@@ -112,6 +112,28 @@ def test_gps_and_compass_give_a_smoother_position_and_speed_from_positions_only(
     assert len(accepted) > 1000 and rig.log.xlog_lines[0].startswith("# t X Y H")
 
 
+def test_the_logs_are_written_in_the_idle_time_and_the_last_tick_at_close() -> None:
+    """The tick keeps the .olog/.xlog values; the idle time after it formats and writes
+    them; a navigator closed straight after a tick (the companion stopping) still writes
+    that tick's."""
+    rig = Rig(GPS_COMPASS)
+    rig.post("INS_YAW", 0.3)
+    rig.post("GPS_X", 1.0)
+    rig.post("GPS_Y", 2.0)
+    rig.tick()
+    written = len(rig.log.olog_lines), len(rig.log.xlog_lines)
+    assert written[0] >= 2 and written[1] >= 2  # the idle time wrote the first tick's
+    rig.clock.advance(0.1)
+    rig.post("INS_YAW", 0.31)
+    now = rig.clock.now()
+    rig.nav.on_mail(rig.bus.fetch(rig.nav.name), now)
+    rig.nav.iterate(now)  # no idle time after this one
+    assert (len(rig.log.olog_lines), len(rig.log.xlog_lines)) == written
+    rig.nav.close()
+    assert len(rig.log.olog_lines) > written[0] and len(rig.log.xlog_lines) > written[1]
+    assert rig.log.olog_lines[-1].startswith("1000.200 compass ORIENTATION yaw=0.3100 ")
+
+
 def test_an_unobservable_position_is_a_navigation_failure_that_ends_the_mission() -> None:
     rig = Rig(GPS_COMPASS + "  EKF_X = 0\n  EKF_Y = 0\n  EKF_SIGMA_XY = 5\n"
                             "  MaxEKFPositionUncertainty = 20\n")

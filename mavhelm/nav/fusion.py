@@ -985,16 +985,12 @@ class Fusion:
         (``BIAS_WANDER_TIME`` when a doubt added it; added only once doubted, a compass
         sitting 4° off for a minute went unseen and cost 0.6-1 m). Its drift rate comes with
         it, as ``EKF_YAW_DRIFT`` says (:meth:`EKF.with_yaw_bias`)."""
-        assert self.ekf is not None
-        self.ekf = self.ekf.with_yaw_bias()
-        self.ekf_config = self.ekf.config
-        self.heading_watch.estimates_bias = True
-        self._heading_scale = (1.0, 0.0)
         self._decide(Decision(t, HEADING, "the orientation sensor's heading bias is estimated "
                               "from now on (as EKF_YAW_BIAS = true): the motion can tell it "
-                              "from the heading"))
-        self._xlog_header = False  # the .xlog's columns change: a new header line
-        return self.ekf
+                              "from the heading"))  # in the .xlog still under its old header
+        self.heading_watch.estimates_bias = True
+        self._heading_scale = (1.0, 0.0)
+        return self._with_states(estimate_yaw_bias=True)
 
     def _add_speed_scale(self, t: float) -> EKF:
         """The body-velocity speeds' scale error as a state, from the first speed a sensor
@@ -1002,10 +998,15 @@ class Fusion:
         seldom within a few per cent of its wheel size (Plaza1's odometer made 10 % long or
         short: 1.9 m RMS without the state, 0.36 m with it), a DVL's sound speed off by as
         much as the water differs from what it was told. Kept by every later boot."""
+        return self._with_states(estimate_speed_scale=True)
+
+    def _with_states(self, **added: bool) -> EKF:
+        """The filter grown by the hidden states ``added`` switches on (:meth:`EKF.with_states`),
+        kept by every later boot; the .xlog gets a new header for its new columns."""
         assert self.ekf is not None
-        self.ekf = self.ekf.with_states(estimate_speed_scale=True)
+        self.ekf = self.ekf.with_states(**added)
         self.ekf_config = self.ekf.config
-        self._xlog_header = False  # the .xlog's columns change: a new header line
+        self._xlog_header = False
         return self.ekf
 
     def _watch(self, fix: Fix) -> None:

@@ -146,15 +146,16 @@ class NavRun:
 
 def start(nav_lines: str, *, ranging: str | None = None, scenario: str = "",
           tmp_path: Path, seed: int = 3, dvl: bool = True, record: tuple[str, ...] = (),
-          beacons: tuple[Beacon, ...] | None = None, logs: bool = False) -> NavRun:
+          beacons: tuple[Beacon, ...] | None = None, logs: bool = False,
+          dvl_scale_error: float = 0.0) -> NavRun:
     """The boat with a heading sensor, a DVL (if ``dvl``) and a ranging receiver (``radio``,
     ``acoustic`` or None; ``beacons`` the ones it hears, default all), the given pNav lines,
     and the fault ``scenario`` text. ``logs``: write the alog and the .olog/.xlog in
-    ``tmp_path``."""
+    ``tmp_path``. ``dvl_scale_error``: the DVL's speeds that much long (0.05: 5 %)."""
     sc = Scenario.from_text(f"seed = {seed}\n{scenario}", name="nav")
     sensors: list = [HeadingSensor()]
     if dvl:
-        sensors.append(DvlSensor())
+        sensors.append(DvlSensor(scale_error=dvl_scale_error))
     if ranging == "radio":
         sensors.append(RadioRanges(beacons=beacons or BEACONS, round_robin=False))
     elif ranging == "acoustic":
