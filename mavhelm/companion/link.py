@@ -391,6 +391,10 @@ class AutopilotLink:
                                   srcComponent=self.component_id)
         self.mav.robust_parsing = True
         self._buffer = bytearray(READ_CAP)
+        self._socket = isinstance(self.transport, TcpTransport | UdpTransport)
+        """A socket's read returns its whole queue, so a read short of the room left is the
+        last one this tick (a tty's returns at most its line discipline's 4 KiB, which a
+        921600-baud link outruns in a tick: it is read until empty)."""
         self.backoff = Backoff(RETRY_FIRST_S, RETRY_MAX_S)
         self._opened_at = 0.0
         self._opening = False
@@ -454,10 +458,11 @@ class AutopilotLink:
         size = 0
         try:
             while size < READ_CAP:
+                room = len(view) - size
                 n = self.transport.read_into(view[size:])
-                if not n:
-                    break
                 size += n
+                if not n or (n < room and self._socket):
+                    break
         except OSError as exc:
             self._fail(now, exc.strerror or str(exc))
             return []
