@@ -141,6 +141,47 @@ def test_a_drifting_bias_is_carried_on_at_its_learned_rate() -> None:
     assert alone.state_names()[6:] == ["YAW_BIAS"]
 
 
+def test_an_integrated_headings_yaw_rate_reads_its_drift_and_the_heading_holds_without_fixes(
+) -> None:
+    """An odometer's heading is its yaw rate integrated, so when the heading drifts (1°/s
+    here, the boat going straight north) its yaw rate reads that drift too. Taken as the
+    boat's turn, the rate carried the heading off with the sensor through 60 s without
+    positions while the bias held (Plaza1, 180° within two minutes across its 100 s without
+    ranges: 1.89 m RMS); read as the drift (the bias's rate state), the heading holds."""
+    drift = math.radians(1.0)
+
+    def run(integrated: bool) -> tuple[EKF, float]:
+        ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_bias=True,
+                                                  velocity_follows_heading=True))
+        worst = 0.0
+        for k in range(1, 1801):  # north at 1 m/s (yaw 0), 10 Hz
+            t = k * 0.1
+            ekf.advance(t)
+            observations: list = [Yaw(t, math.remainder(drift * t, 2 * math.pi),
+                                      sigma=math.radians(0.5)),
+                                  BodyVelocity(t, 1.0, 0.0, drift, 0.05, 0.05,
+                                               math.radians(0.5), integrated=integrated)]
+            if t <= 120.0:  # positions for 120 s, then 60 s without
+                observations.append(Position(t, 0.0, t, sigma=0.3))
+            ekf.update(observations)
+            if t > 120.0:
+                worst = max(worst, abs(math.remainder(ekf.x[I_H, 0], 2 * math.pi)))
+        return ekf, worst
+    read_as_drift, worst = run(True)
+    assert read_as_drift.x[read_as_drift.i_drift, 0] == pytest.approx(drift, rel=0.1)
+    assert worst < math.radians(0.5)  # measured 0.00002°
+    _, carried_off = run(False)
+    assert carried_off > math.radians(15.0)  # measured 21.4°
+    # the row itself: (1 + κ) ω + ḃ, its Jacobian 1 on the drift
+    ekf = EKF(0.0, 0.0, 0.0, config=EKFConfig(estimate_yaw_bias=True, estimate_yaw_scale=True))
+    ekf.x[I_VH, 0], ekf.x[ekf.i_yaw_scale, 0], ekf.x[ekf.i_drift, 0] = 0.2, 0.05, 0.01
+    ((measured, predicted, jacobian, _var, _angle),) = ekf._rows(
+        BodyVelocity(0.0, None, None, 0.3, integrated=True), ekf.x[:, 0].tolist())
+    assert predicted == pytest.approx(1.05 * 0.2 + 0.01)
+    assert dict(jacobian) == {I_VH: pytest.approx(1.05), ekf.i_yaw_scale: pytest.approx(0.2),
+                              ekf.i_drift: 1.0}
+
+
 def test_an_integrated_headings_scale_error_is_learned_and_carried_through_the_turns() -> None:
     """EKF_YAW_SCALE: an odometer's heading is its yaw rate integrated, both 6 % long, so
     the heading's error grows with each turn and unwinds with the next turn back, which no

@@ -235,12 +235,16 @@ class EKFConfig:
       speed): ``sigma_yaw_drift`` its initial 1-σ (rad/s), ``yaw_drift_noise`` the spectral
       density of its changes (rad/s/√s). An odometry-integrated heading's error is the
       integral of a yaw-rate error that changes slowly; a random-walk bias alone holds the
-      last bias through a stretch without position data while the heading drifts on.
-      Measured on Plaza1 (RMS m, seeds 1-3): the heading drifting 180° within five minutes
-      (``heading_drift``) 2.47/1.49/2.27 without, 0.55/0.68/0.81 with (3e-4: 0.64/0.51/0.95,
-      1e-3: 1.43/0.86/1.56, 3e-5: 2.29/1.02/2.20); wandering 180° over the run
-      0.59/0.65/0.65 → 0.49/0.50/0.50; the recording without a fault 0.47 → 0.48. Only on
-      a mobile vehicle.
+      last bias through a stretch without position data while the heading drifts on. Where
+      the heading is the integral of a body velocity's yaw rate (one source gives both),
+      that rate reads the drift too (:meth:`_body_velocity_rows`).
+      Measured on Plaza1 (RMS m, seeds 1-3), the heading drifting 180° within two minutes
+      (``heading_drift`` with a 120 s window): with the rate reading the drift 0.72/1.31/1.42
+      at 1e-4, 0.44/0.90/1.43 at 2e-4, 0.40/0.75/1.40 at 3e-4, 0.39/0.72/1.39 at 4e-4,
+      0.48/0.87/1.63 at 1e-3; before it 1.89/1.18/1.69 (1e-4). Within one minute, 3e-4:
+      0.82/1.41/2.74 (before 15.6/2.04/7.09); within five 0.37/0.46/0.65 (0.41/0.57/0.71);
+      the recording without a fault 0.36 → 0.37 m (4e-4 0.37, 1e-3 0.49). Only on a mobile
+      vehicle.
     - ``estimate_yaw_scale`` (EKF_YAW_SCALE, set by the navigator only where the orientation
       sensor and a body-velocity sensor are one source): with the bias state, the scale
       error κ of the yaw rate that heading integrates, shared by the two: the sensor's yaw
@@ -308,7 +312,7 @@ class EKFConfig:
     yaw_bias_noise: float = 1e-3
     estimate_yaw_drift: bool = setting(EKF_YAW_DRIFT)
     sigma_yaw_drift: float = math.radians(1.0)
-    yaw_drift_noise: float = 1e-4
+    yaw_drift_noise: float = 3e-4
     estimate_yaw_scale: bool = False
     """EKF_YAW_SCALE where the heading is a body-velocity sensor's (see above)."""
     sigma_yaw_scale: float = 0.05
@@ -1075,7 +1079,8 @@ class EKF:
             return [(obs.z, k * d + x[i], jacobian, obs.sigma**2, False)]
         if isinstance(obs, BodyVelocity):
             return self._body_velocity_rows(obs, x, self.i_speed,
-                                            self.i_yaw_scale if obs.integrated else None)
+                                            self.i_yaw_scale if obs.integrated else None,
+                                            self.i_drift if obs.integrated else None)
         if isinstance(obs, Yaw):
             jacobian = [(I_H, 1.0)]
             predicted = x[I_H]
@@ -1108,11 +1113,16 @@ class EKF:
 
     @staticmethod
     def _body_velocity_rows(obs: BodyVelocity, x: list[float], i_speed: int | None = None,
-                            i_yaw_scale: int | None = None) -> list[_Row]:
+                            i_yaw_scale: int | None = None, i_drift: int | None = None
+                            ) -> list[_Row]:
         """Forward speed, starboard speed and yaw rate, those the sensor gives (ω × r at the
         sensor's lever arm); the speeds times (1 + the speed scale) when it is a state
         (``i_speed``), the yaw rate times (1 + the yaw scale) when the heading is its
-        integral (``i_yaw_scale``)."""
+        integral (``i_yaw_scale``), plus the rate the bias drifts at (``i_drift``): the
+        heading's error is the integral of its rate's, so the rate reads the drift too.
+        Without it a stretch without position data let the heading follow the rate as read,
+        drift and all, while the bias held (Plaza1, the heading drifting 1.5°/s through its
+        100 s without ranges: the bias fell 40° behind, 14 m off)."""
         s, c = math.sin(x[I_H]), math.cos(x[I_H])
         vx, vy = x[I_VX], x[I_VY]
         u = -vx * s + vy * c
@@ -1128,11 +1138,17 @@ class EKF:
              obs.sigma_starboard, starboard),
             (obs.yaw_rate, w, (0.0, 0.0, 0.0, 1.0), obs.sigma_yaw_rate, 0.0)]
         rows: list[_Row] = []
-        if i_yaw_scale is not None and obs.yaw_rate is not None:
-            # the integrated heading's own yaw rate reads (1 + κ) ω: its row in place of ω's
-            k = x[i_yaw_scale]
-            rows.append((obs.yaw_rate, (1.0 + k) * w, [(I_VH, 1.0 + k), (i_yaw_scale, w)],
-                         obs.sigma_yaw_rate**2, False))
+        if (i_yaw_scale is not None or i_drift is not None) and obs.yaw_rate is not None:
+            # the integrated heading's own yaw rate reads (1 + κ) ω + ḃ: its row in place of ω's
+            k = x[i_yaw_scale] if i_yaw_scale is not None else 0.0
+            jacobian = [(I_VH, 1.0 + k)]
+            predicted = (1.0 + k) * w
+            if i_yaw_scale is not None:
+                jacobian.append((i_yaw_scale, w))
+            if i_drift is not None:
+                jacobian.append((i_drift, 1.0))
+                predicted += x[i_drift]
+            rows.append((obs.yaw_rate, predicted, jacobian, obs.sigma_yaw_rate**2, False))
             del parts[-1]
         for measured, predicted, (d_vx, d_vy, d_h, d_vh), sigma, d_g in parts:
             if measured is None:
