@@ -106,6 +106,7 @@ from mavhelm.nav.settings import (
     setting,
 )
 from mavhelm.nav.settings import LSQ as LSQ_SETTING
+from mavhelm.nav.stuck_heading import StuckHeading
 from mavhelm.nav.survey_check import Fit, SurveyCheck
 
 BOOT_FIXES = 3
@@ -240,6 +241,7 @@ class Fusion:
         once one was added (:meth:`_add_yaw_bias`)."""
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
         self.rate_sense = RateSense()
+        self.stuck_heading = StuckHeading()
         """The body velocity sensors' yaw rates voted against the headings' turns: a rate of
         the wrong sense is negated (:mod:`mavhelm.nav.rate_sense`)."""
         self.reversed_headings: set[str] = set()
@@ -286,7 +288,7 @@ class Fusion:
         need is kept, formatted once taken, in the loop's idle time (:meth:`take_olog`)."""
         self.warnings: list[str] = []
         self.counts = {"accepted": 0, "rejected": 0, "late": 0, "future": 0, "outlier": 0,
-                       "waiting": 0, "offline": 0}
+                       "stuck": 0, "waiting": 0, "offline": 0}
         self.reinitialisations = 0
         self.fixes = 0
         self.boot_fix: Fix | None = None
@@ -467,6 +469,8 @@ class Fusion:
             kept = [dataclasses.replace(r, obs=dataclasses.replace(r.obs, z=-r.obs.z))
                     if isinstance(r.obs, Yaw) and r.sensor.name in self.reversed_headings
                     else r for r in kept]
+        if self.ekf is not None:
+            kept = self._not_stuck(t, kept, self.ekf.x.item(I_VH))
         for r in kept:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
@@ -497,6 +501,21 @@ class Fusion:
         self._align(t)
         self._align_from_ranges(t)
         self._test_sense(t)
+
+    def _not_stuck(self, t: float, kept: list[Reading], yaw_rate: float) -> list[Reading]:
+        """The slice without the headings of a sensor found stuck
+        (:mod:`mavhelm.nav.stuck_heading`)."""
+        out = []
+        for r in kept:
+            if isinstance(r.obs, Yaw):
+                use, decision = self.stuck_heading.reading(t, r.sensor.name, r.obs.z, yaw_rate)
+                if decision is not None:
+                    self._decide(decision)
+                if not use:
+                    self._log(r, "stuck")
+                    continue
+            out.append(r)
+        return out
 
     def _sensed(self, t: float, kept: list[Reading]) -> list[Reading]:
         """The slice's yaw rates and headings voted (:mod:`mavhelm.nav.rate_sense`); the

@@ -98,6 +98,10 @@ STILL_SPEED: Final = 0.1
 """m/s: slower than this the vehicle is still."""
 STILL_TIME: Final = 5.0
 """s: still (or moving) this long before the bias's observability is said to change."""
+MOVING_NOTE: Final = "the vehicle moves:"
+STILL_NOTE: Final = "the vehicle is still:"
+"""How :meth:`HeadingWatch.motion`'s notes begin: a vehicle's stops and starts, which a
+summary may leave out."""
 
 
 class HeadingWatch:
@@ -192,8 +196,8 @@ class HeadingWatch:
             return None
         self._moving = moving
         if moving:
-            return Decision(t, HEADING, "the vehicle moves: the heading bias is observable")
-        return Decision(t, HEADING, "the vehicle is still: the heading bias is unobservable, "
+            return Decision(t, HEADING, f"{MOVING_NOTE} the heading bias is observable")
+        return Decision(t, HEADING, f"{STILL_NOTE} the heading bias is unobservable, "
                         "the heading sensor is trusted as it reads")
 
     _pending: bool = False

@@ -26,7 +26,8 @@ from mavhelm.core.clock import SimClock
 from mavhelm.core.mission import Block
 from mavhelm.nav.chi_square import chi2_ppf
 from mavhelm.nav.ekf import EKF, Estimate
-from mavhelm.nav.filter_safety import DECISION_KINDS, HEADING
+from mavhelm.nav.filter_safety import DECISION_KINDS
+from mavhelm.nav.heading_watch import MOVING_NOTE, STILL_NOTE
 from mavhelm.nav.navigator import Navigator
 
 OWN_OUTPUTS = ("NAV_", "EKF_", "LSQ_")
@@ -177,8 +178,9 @@ class ReplayResult:
             lines.append("decisions: " + ", ".join(f"{kind} {made.count(kind)}"
                                                    for kind in DECISION_KINDS))
             first, later = fusion.decisions[:10], fusion.decisions[10:]
-            # the heading's stop-and-go notes crowd out the rarer decisions after the first ten
-            shown = first + [d for d in later if d.kind != HEADING][:10]
+            # the vehicle's stops and starts crowd out the rarer decisions after the first ten
+            shown = first + [d for d in later if not d.why.startswith((MOVING_NOTE,
+                                                                       STILL_NOTE))][:10]
             lines += [f"  {d.t - self.start:8.1f} s  {d}" for d in shown]
             if len(fusion.decisions) > len(shown):
                 lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
