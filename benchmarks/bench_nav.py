@@ -113,6 +113,16 @@ the bit (Plaza1 tracks and covariances compared).
   Timed the same morning on this VM: single runs' p99 1.10–1.13 ms in a quiet hour (the
   work, per-tick minimum, 0.78 ms), 1.43–1.95 ms an hour later with every app's median
   15 % slower (the work 0.95 ms): the host sets the tick's p99 more than the code does.
+- The local frame worked in ``math`` (pymap3d's formulae: its trigonometry goes through
+  numpy's ufuncs, ten times ``math``'s on a lone float; the bridge converts two positions
+  a GPS tick) and a socket read once a tick when it returns its whole queue: the GPS ticks'
+  iMAVLink 100 → 78 µs median, the 1 Hz burst tick's 197 → 165 µs (the work, quiet
+  machine). The same morning, two runs of three: median of the runs' p99 0.96 and 0.75 ms
+  (met), per-tick minimum p99 0.70 and 0.65 ms; half an hour later, the host slower (every
+  app's median 15–30 % up), 1.38 ms and 1.16 ms, the work 1.14 and 0.81 ms; the full
+  ``bench_nav`` after the day's nav changes (a yaw-rate row and a stuck-heading check, a
+  few µs a tick) 1.1 ms, the work 0.79 ms. On this VM the target is met when the host is
+  quiet and not when it is busy.
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state

@@ -241,9 +241,11 @@ class Fusion:
         once one was added (:meth:`_add_yaw_bias`)."""
         self.heading_watch = HeadingWatch(config.ekf.estimate_yaw_bias)
         self.rate_sense = RateSense()
-        self.stuck_heading = StuckHeading()
         """The body velocity sensors' yaw rates voted against the headings' turns: a rate of
         the wrong sense is negated (:mod:`mavhelm.nav.rate_sense`)."""
+        self.stuck_heading = StuckHeading()
+        """Heading sensors whose value stands while the vehicle turns, refused until it moves
+        (:mod:`mavhelm.nav.stuck_heading`)."""
         self.reversed_headings: set[str] = set()
         """Heading sensors the motion found read the wrong way round, where a rate turned
         against them (:meth:`_test_sense`): their readings are taken negated."""

@@ -6,8 +6,8 @@ drift rate sweeps the reading the filter expects through the frozen value, and a
 happens to fit there is taken as the sensor agreeing again: Plaza1 with the heading drifting
 180° within two minutes and stuck for five of them, 2.18 m RMS, 30 m off, re-initialised from
 the LSQ. A real sensor's value moves when the vehicle turns; one that has not moved for
-``STUCK_TIME`` while the filter's heading turned ``STUCK_TURN`` is refused until its value
-changes. The turn is the filter's yaw rate integrated between readings (not its heading's
+``STUCK_TIME`` while the vehicle turned ``STUCK_TURN`` is refused until its value changes.
+The turn is the filter's yaw rate integrated between readings (not its heading's
 change, which a realignment would jump), over the last ``STUCK_WINDOW`` s: a gyro's bias read
 as a slow turn at rest (0.5°/s: 5° in the window) does not make a still sensor look stuck.
 Going straight, a frozen sensor is not told from a steady one, and does no harm.
