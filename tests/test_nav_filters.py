@@ -327,3 +327,36 @@ def test_a_replay_ignores_the_recorded_runs_own_nav_outputs() -> None:
     result = replay(block["pNav"], messages)
     assert result.tracks["NAV"].x and max(result.tracks["NAV"].x) < 10.0
     assert len(result.tracks["NAV"].t) == len(set(result.tracks["NAV"].t))
+
+
+def test_the_forecast_through_the_lag_reads_an_odometers_heading_as_the_filter_does() -> None:
+    """EKF_LAG: the estimate brought forward to now dead-reckons the readings queued within
+    the lag. An odometer's heading drifting 1°/s (its yaw rate reading the same drift): the
+    filter's bias and drift take it out, and the forecast must too, the bias as it drifted
+    since the filter's time and the rate less the drift (1.1° off through a 1 s lag when it
+    took the heading less the filter's bias then and the rate as read; 0.000005° now)."""
+    rig = Rig("""  X = EKF
+  Y = EKF
+  Heading = EKF
+  EKF_LAG = 1
+  EKF_YAW_BIAS = true
+  SENSOR_XY          = GPS -> gps ~ 0.3
+  SENSOR_ORIENTATION = ODOM -> odometer_heading ~ 0.5
+  SENSOR_BODY_VEL    = ODOM -> odometer ~ 0.05, 0.05, 0.5
+""")
+    drift = math.radians(1.0)
+    worst = 0.0
+    for k in range(3000):  # north at 1 m/s, yaw 0, 10 Hz; a fix a second
+        elapsed = rig.clock.now() - 1000.0
+        rig.post("ODOM_YAW", math.remainder(drift * elapsed, 2 * math.pi))
+        rig.post("ODOM_VX_BODY", 1.0)
+        rig.post("ODOM_VY_BODY", 0.0)
+        rig.post("ODOM_YAW_VEL", drift)
+        if k % 10 == 0:
+            rig.post("GPS_X", 0.0)
+            rig.post("GPS_Y", elapsed)
+        rig.tick()
+        yaw = rig.last("NAV_YAW")
+        if k > 2000 and yaw is not None:
+            worst = max(worst, abs(math.remainder(yaw.double, 2 * math.pi)))
+    assert worst < math.radians(0.1)

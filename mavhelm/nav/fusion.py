@@ -448,10 +448,12 @@ class Fusion:
             obs = reading.obs
             if isinstance(obs, Yaw) and reading.sensor.name != unsure_heading:
                 z = -obs.z if reading.sensor.name in self.reversed_headings else obs.z
-                yaw = z - e.yaw_bias
+                yaw = z - (e.yaw_bias + e.yaw_drift * (ti - e.t))  # the bias as it drifted
             elif isinstance(obs, BodyVelocity):
                 if obs.yaw_rate is not None and _rate_label(reading) != unsure_rate:
                     w = -obs.yaw_rate if _rate_label(reading) in reversed_ else obs.yaw_rate
+                    if obs.integrated:  # as the filter reads it: (1 + κ) ω + ḃ
+                        w = (w - e.yaw_drift) / (1.0 + e.yaw_scale)
                 if obs.forward is not None:
                     body = (obs.forward, obs.starboard or 0.0)
             else:
