@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Final
 
 from mavhelm.nav.filter_safety import HEADING, Decision
@@ -35,11 +35,8 @@ STUCK_WINDOW: Final = 10.0
 class _Held:
     value: float
     since: float
-    last: float
-    turned: float = 0.0
-    """rad: the turn since ``since``; ``history`` its (time, value) over the window, the
-    newest last."""
-    history: deque[tuple[float, float]] = field(default_factory=deque)
+    turns: deque[tuple[float, float]]
+    """(time, turn since ``since``) at each reading over the window, the newest last."""
     stuck: bool = False
 
 
@@ -55,20 +52,19 @@ class StuckHeading:
         """``value``: the reading as the sensor gave it; ``yaw_rate``: the filter's (rad/s)."""
         held = self._held.get(sensor)
         if held is None or value != held.value:
-            self._held[sensor] = _Held(value, t, t, history=deque([(t, 0.0)]))
+            self._held[sensor] = _Held(value, t, deque([(t, 0.0)]))
             if held is not None and held.stuck:
                 return True, Decision(t, HEADING, f"heading sensor {sensor} reads a new "
                                       "value: used again")
             return True, None
         if held.stuck:
             return False, None
-        held.turned += yaw_rate * max(t - held.last, 0.0)
-        held.last = t
-        history = held.history
-        history.append((t, held.turned))
-        while history[0][0] < t - STUCK_WINDOW:
-            history.popleft()
-        turned = held.turned - history[0][1]
+        turns = held.turns
+        last, turned_since = turns[-1]
+        turns.append((t, turned_since + yaw_rate * max(t - last, 0.0)))
+        while turns[0][0] < t - STUCK_WINDOW:
+            turns.popleft()
+        turned = turns[-1][1] - turns[0][1]
         if abs(turned) >= STUCK_TURN and t - held.since >= STUCK_TIME:
             held.stuck = True
             return False, Decision(t, HEADING, (
