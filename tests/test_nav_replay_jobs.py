@@ -51,10 +51,11 @@ def test_parallel_fault_runs_report_as_one_after_another(tmp_path: Path) -> None
     assert one.returncode == 0 and two.returncode == 0, one.stdout + one.stderr + two.stderr
     faults = [line for line in _report(two.stdout) if line.startswith("== fault ")]
     assert faults == ["== fault heading_wander ==", "== fault heading_drift ==",
-                      "== fault heading_jumps ==", "== fault heading_stuck ==",
-                      "== fault gps_glitches ==", "== fault heading_reversed =="]
+                      "== fault heading_offset ==", "== fault heading_jumps ==",
+                      "== fault heading_stuck ==", "== fault gps_glitches ==",
+                      "== fault heading_reversed =="]
     assert _report(two.stdout) == _report(one.stdout)
-    assert two.stdout.count("replay took") == 7
+    assert two.stdout.count("replay took") == 8
     assert "NAV" in two.stdout and "position: RMS" in two.stdout
 
 
@@ -73,7 +74,7 @@ def test_faults_only_leaves_the_recorded_run_out_and_reports_the_rest_the_same(
     every = _replay(tmp_path, "--jobs", "1")
     only = _replay(tmp_path, "--jobs", "2", "--faults-only")
     assert every.returncode == 0 and only.returncode == 0, only.stdout + only.stderr
-    assert only.stdout.count("replay took") == 6  # the six faults, not the recording
+    assert only.stdout.count("replay took") == 7  # the seven faults, not the recording
     every_lines = _report(every.stdout)
     faults = every_lines[every_lines.index("== fault heading_wander ==") - 1:]
     assert _report(only.stdout) == faults  # each fault's report as before, the first headed too

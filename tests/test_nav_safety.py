@@ -169,7 +169,8 @@ def _log(seconds: int = 1200) -> list[Message]:
 
 def test_faults_are_deterministic_and_do_what_they_say() -> None:
     log = _log()
-    assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_jumps",
+    assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_offset",
+                           "heading_jumps",
                            "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
                            "gps_glitches", "yaw_rate_reversed", "heading_reversed",
                            "speed_scale"}
@@ -189,6 +190,11 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     assert 0.0 < abs(moved[0] - 10.0) <= 5.0
     glitched = [m.double for m in with_fault("gps_glitches", log, LAYOUT) if m.name == "G_X"]
     assert 1.5 < float(np.std(glitched[:60])) < 2.5 and max(glitched) > 25.0
+    for seed in range(1, 6):
+        turned = {math.remainder(m.double - 90.0, 360.0)
+                  for m in with_fault("heading_offset", log, LAYOUT, seed=seed)
+                  if m.name == "C_HEADING"}
+        assert len(turned) == 1 and 90.0 <= abs(turned.pop()) <= 180.0
     jumps = [m.double for m in with_fault("heading_jumps", log, LAYOUT) if m.name == "C_HEADING"]
     assert sum(h != 90.0 for h in jumps) > 60
     stuck = [m.double for m in with_fault("heading_stuck", log, LAYOUT) if m.name == "C_HEADING"]

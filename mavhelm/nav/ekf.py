@@ -644,6 +644,9 @@ class EKF:
         """Keep the speed scale where it is (a Schmidt "consider" state: its uncertainty
         still counts, the updates leave it alone): its owner holds it while the heading is
         in question, when the track's errors would be taken as the speeds' scale."""
+        self.hold_drift = False
+        """The same for the heading bias's drift rate, which a heading being turned by
+        tens of degrees would take for drift."""
         self._eye = np.eye(self.dim)
         self._pairs, self._walks = self._noise_layout()
         self._coupling, self._noise_templates = self._templates()
@@ -1000,9 +1003,11 @@ class EKF:
             S_inv = _inv(Ss)
         K = np.dot(PHts, S_inv)
         kf = self.kf
-        held = self.hold_speed_scale and self.i_speed is not None
+        rows = [i for i, hold in ((self.i_speed, self.hold_speed_scale),
+                                  (self.i_drift, self.hold_drift)) if hold and i is not None]
+        held = bool(rows)
         if held:
-            K[self.i_speed, :] = 0.0
+            K[rows, :] = 0.0
         state = [a + b for a, b in zip(x, np.dot(K, yi).tolist(), strict=True)]  # x + K y
         if held:  # a gain not the optimal one: P − K (P Hᵀ)ᵀ − (P Hᵀ) Kᵀ + K S Kᵀ
             KPHt = np.dot(K, PHts.T)
@@ -1295,6 +1300,7 @@ class EKF:
                                                              self.recoveries)
         twin._good, twin._wander, twin.along_track = self._good, self._wander, self.along_track
         twin.hold_speed_scale = self.hold_speed_scale
+        twin.hold_drift = self.hold_drift
         return twin
 
     def state_names(self) -> list[str]:

@@ -14,6 +14,9 @@ those real vehicles meet:
 ``heading_scale``      an odometry-integrated heading whose yaw rate is 3–8 % off, as the same
                        instrument's yaw rate: its error grows with each turn, not with time
                        (an odometer's wheel base); only where one source gives both
+``heading_offset``     the orientation sensor reads 90–180° (either way) off the true heading
+                       from the start (a compass mounted turned, an odometer's heading counted
+                       from its own zero)
 ``heading_jumps``      the heading jumps 30–90° for 5–20 s at a time, every minute or so (a
                        compass near a motor)
 ``heading_stuck``      the heading holds one value for five minutes (a frozen AHRS)
@@ -154,6 +157,13 @@ def heading_scale(messages: list[Message], layout: Layout,
     return out
 
 
+def heading_offset(messages: list[Message], layout: Layout,
+                   rng: np.random.Generator) -> list[Message]:
+    offset = float(rng.choice([-1.0, 1.0]) * rng.uniform(90.0, 180.0))
+    return [_turn(m, offset) if _is(m, layout.orientation, "HEADING", "YAW") else m
+            for m in messages]
+
+
 def heading_jumps(messages: list[Message], layout: Layout,
                   rng: np.random.Generator) -> list[Message]:
     t0, t1 = _span(messages)
@@ -284,6 +294,7 @@ FAULTS: dict[str, FaultMaker] = {
     "heading_wander": heading_wander,
     "heading_drift": heading_drift,
     "heading_scale": heading_scale,
+    "heading_offset": heading_offset,
     "heading_jumps": heading_jumps,
     "heading_stuck": heading_stuck,
     "ranges_gap": ranges_gap,
