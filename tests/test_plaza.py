@@ -197,6 +197,10 @@ def test_a_recording_without_its_dead_reckoning_integrates_the_odometry() -> Non
     assert np.abs(turn).max() < 1e-9
     headings = [m for m in convert.messages(without) if m.name == "ODOM_HEADING"]
     assert len(headings) == len(given)
+    # a recording whose odometry frame is turned from the truth's says by how much
+    turned = convert.dead_reckoning({**without, "init_heading_offset": np.array([[0.5]])})
+    turn = (turned[:, 3] - given[:, 3] + np.pi) % (2 * np.pi) - np.pi
+    assert np.abs(turn - 0.5).max() < 1e-9
 
 
 def test_a_heading_turned_round_is_taken_from_the_ranges(plaza) -> None:

@@ -58,12 +58,18 @@ def _finite_rows(array: np.ndarray) -> np.ndarray:
 def dead_reckoning(mat: dict[str, np.ndarray]) -> np.ndarray:
     """``DRp`` (t, x, y, angle): the odometry integrated, as the data set gives it; a recording
     without it gets it integrated here from ``DR``, from the ground truth's first pose, where
-    Plaza1's own ``DRp`` starts. Only its heading is used (``ODOM_HEADING``): on Plaza1 the
-    integrated angle equals ``DRp``'s at every row (a test)."""
+    Plaza1's own ``DRp`` starts, turned by the recording's ``init_heading_offset`` where it
+    has one (the odometry's heading frame against the truth's, which the data set's own
+    loaders add to the truth's first heading; 0 on Plaza1). Only its heading is used
+    (``ODOM_HEADING``): on Plaza1 the integrated angle equals ``DRp``'s at every row (a
+    test)."""
     if "DRp" in mat:
         return _finite_rows(mat["DRp"])
     dr, gt = _finite_rows(mat["DR"]), _finite_rows(mat["GT"])
     t0, x, y, angle = (float(v) for v in gt[0])
+    offset = np.asarray(mat.get("init_heading_offset", 0.0), dtype=float).ravel()
+    if offset.size == 1 and np.isfinite(offset[0]):
+        angle += float(offset[0])
     rows = [(t0, x, y, angle)]
     for t, dist, dyaw in dr:
         if t <= rows[-1][0]:
