@@ -51,12 +51,14 @@ RESTARTED: Final = "restarted"
 HEADING: Final = "heading"
 LSQ_TRUST: Final = "lsq"
 BEACON: Final = "beacon"
+FIX: Final = "fix"
 DECISION_KINDS: Final = (BOOTED, REINITIALISED, LOST, FAILED, RESTARTED, HEADING, LSQ_TRUST,
-                         BEACON)
+                         BEACON, FIX)
 """What the navigator decides: the EKF booted, re-initialised to the LSQ, lost (off-line,
 waiting for the LSQ), the navigation failed, the EKF restarted after a numerical fault, what
-it concluded about a heading sensor, whether the LSQ is trusted to watch the EKF, and which
-beacons are off their survey."""
+it concluded about a heading sensor, whether the LSQ is trusted to watch the EKF, which
+beacons are off their survey, and when a position sensor's refused fixes showed the filter
+off."""
 
 
 @dataclass(frozen=True)

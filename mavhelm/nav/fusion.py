@@ -67,6 +67,7 @@ from mavhelm.nav.filter_safety import (
     Decision,
     FilterSafety,
 )
+from mavhelm.nav.fix_watch import FixWatch
 from mavhelm.nav.heading_watch import (
     ADDED_WANDER_TIME,
     BIAS_WANDER_TIME,
@@ -141,7 +142,7 @@ ALIGN_SIGMA = math.radians(10.0)
 """rad: the least 1-σ of a heading taken from the motion."""
 ALIGN_SIGMA_VELOCITY = 0.5
 """m/s: the 1-σ of the velocity set from the last run made good."""
-RANGE_CHECK_EVERY = 2.0
+RANGE_CHECK_EVERY = 1.0
 """s between two asks of the heading from the ranges while a doubt lasts (``RANGE_WINDOW``
 after it)."""
 SENSE_TIME = 300.0
@@ -266,6 +267,8 @@ class Fusion:
         the track cannot tell which one (:mod:`mavhelm.nav.beacon_watch`)."""
         self.beacon_watch = self._new_beacon_watch()
         self.alignment = MotionAlignment()
+        self.fix_watch = FixWatch()
+        """Each position sensor's refused fixes, for a filter gone astray (:meth:`_watch_fix`)."""
         """The orientation sensor's offset from the course made good, for a heading far out
         (:meth:`_align`)."""
         self._last_fix: tuple[float, float, float] | None = None
@@ -873,6 +876,8 @@ class Fusion:
         if self.config.speed_scale and ekf.i_speed is None \
                 and any(_has_speed(r.obs) for r in kept):
             ekf = self._add_speed_scale(t)
+        prior = (ekf.x.item(I_X), ekf.x.item(I_Y), math.hypot(ekf.x.item(I_VX),
+                                                                ekf.x.item(I_VY)))
         result = ekf.update([self._weighted(self._brought_forward(r), r.sensor.name)
                              for r in kept])
         self._note_coupling(kept)
@@ -892,6 +897,8 @@ class Fusion:
                     self._doubt_from_ranges(t)
                 if adrift is not None and self.heading_watch.course_defined(t):
                     ekf = self._doubt_heading(t)
+            if isinstance(used, Position):
+                ekf = self._watch_fix(t, r.sensor.name, used, verdict.accepted, prior)
             if isinstance(r.obs, Range) and verdict.accepted:
                 height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + r.obs.lever[2]
                 self.survey_check.hear(r.obs.t, r.obs.beacon, r.obs.z, r.obs.sigma, height)
@@ -919,6 +926,24 @@ class Fusion:
             for name in self.beacon_watch.newly_off:
                 self._forget(ekf, self.beacon_watch.weights[name], but=name,
                              fit=self.survey_check.fits.get(name) if name == singled_out else None)
+
+    def _watch_fix(self, t: float, sensor: str, fix: Position, accepted: bool,
+                   prior: tuple[float, float, float]) -> EKF:
+        """A position fix's verdict to the fix watch (:mod:`mavhelm.nav.fix_watch`); when it
+        finds the filter off (``prior``: its x, y and speed before the update), the position
+        is widened by the fix's distance and the heading doubted, unless the LSQ's
+        disagreement (spec 2.2.9) is about to re-initialise it anyway."""
+        ekf = self.ekf
+        assert ekf is not None
+        x, y, speed = prior
+        off = math.hypot(fix.x - x, fix.y - y)
+        decision = self.fix_watch.heard(t, sensor, fix.x, fix.y, fix.sigma, accepted, speed,
+                                        off)
+        if decision is None or self.safety.disagreeing:
+            return ekf
+        ekf.reopen_offsets([], off)
+        self._decide(decision)
+        return self._doubt_heading(t)
 
     def _forget(self, ekf: EKF, error: float, but: str | None = None,
                 fit: Fit | None = None) -> None:

@@ -1,0 +1,132 @@
+"""The fix watch (:mod:`mavhelm.nav.fix_watch`): fixes refused in a row that follow on from
+one another as the vehicle moves tell of a filter gone astray, and it is put right; a glitch,
+which jumps, is refused to its end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavhelm.core.bus import Message
+from mavhelm.core.mission import parse_mission
+from mavhelm.nav import fix_watch
+from mavhelm.nav.filter_safety import FIX
+from mavhelm.nav.fix_watch import REFUSED_RUN, FixWatch
+from mavhelm.nav.replay import replay
+
+
+def test_fixes_refused_in_a_row_that_follow_on_say_the_filter_is_off() -> None:
+    watch = FixWatch()
+    assert watch.heard(0.0, "gps", 0.0, 0.0, 2.0, True, 3.0, 0.0) is None
+    said = [watch.heard(0.2 * k, "gps", 0.6 * k, 0.0, 2.0, False, 3.0, 5.0 * k)
+            for k in range(1, REFUSED_RUN + 1)]
+    assert said[:-1] == [None] * (REFUSED_RUN - 1)
+    assert said[-1] is not None and said[-1].kind == FIX
+    assert "position sensor gps" in said[-1].why and "the filter is off" in said[-1].why
+    # counted again from there; an accepted fix ends the run
+    assert watch.heard(1.0, "gps", 3.0, 0.0, 2.0, False, 3.0, 9.0) is None
+    assert watch.heard(1.2, "gps", 3.6, 0.0, 2.0, True, 3.0, 0.0) is None
+    assert all(watch.heard(1.2 + 0.2 * k, "gps", 3.6 + 0.6 * k, 0.0, 2.0, False, 3.0, 1.0)
+               is None for k in range(1, REFUSED_RUN))
+
+
+def test_a_glitch_jumps_and_is_refused_to_its_end() -> None:
+    watch = FixWatch()
+    watch.heard(0.0, "gps", 0.0, 0.0, 2.0, True, 3.0, 0.0)
+    # 40 m out at once, then every fix of the glitch near the one before it
+    assert all(watch.heard(0.2 * k, "gps", 40.0 + 0.6 * k, 0.0, 2.0, False, 3.0, 40.0) is None
+               for k in range(1, 30))
+    watch.heard(6.0, "gps", 18.0, 0.0, 2.0, True, 3.0, 0.0)  # over: taken again
+    said = [watch.heard(6.0 + 0.2 * k, "gps", 18.0 + 0.6 * k, 0.0, 2.0, False, 3.0, 5.0)
+            for k in range(1, REFUSED_RUN + 1)]
+    assert said[-1] is not None
+
+
+def test_each_sensor_is_watched_on_its_own() -> None:
+    watch = FixWatch()
+    for name in ("gps", "usbl"):
+        watch.heard(0.0, name, 0.0, 0.0, 2.0, True, 3.0, 0.0)
+    for k in range(1, REFUSED_RUN):
+        assert watch.heard(0.2 * k, "gps", 0.6 * k, 0.0, 2.0, False, 3.0, 5.0) is None
+        assert watch.heard(0.2 * k, "usbl", 0.6 * k, 0.0, 2.0, False, 3.0, 5.0) is None
+    assert watch.heard(0.2 * REFUSED_RUN, "usbl", 1.8, 0.0, 2.0, False, 3.0, 5.0) is not None
+
+
+MISSION = """
+LatOrigin = 56.412
+LongOrigin = -5.476
+ProcessConfig = pNav
+{
+    X       = EKF @ 2
+    Y       = EKF @ 2
+    Heading = EKF @ 2
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
+    SENSOR_BODY_VEL    = DVL -> dvl ~ 0.02, 0.02
+    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5
+}
+"""
+SPEED = 4.0
+STILL = 20.0
+RAMP = 4.0
+
+
+def _boat(heading_error: float, seconds: float = 80.0) -> list[Message]:
+    """A boat still for ``STILL`` s, then east, reaching ``SPEED`` in ``RAMP`` s: 5 Hz GPS
+    (0.3 m of noise), 10 Hz compass ``heading_error`` degrees out from the start, 10 Hz
+    gyro, 5 Hz DVL, the truth."""
+    rng = np.random.default_rng(3)
+    out = []
+    for k in range(int(seconds * 10)):
+        t = 1000.0 + 0.1 * k
+        run = max(t - 1000.0 - STILL, 0.0)
+        speed = SPEED * min(run / RAMP, 1.0)
+        x = SPEED * (run**2 / (2 * RAMP) if run < RAMP else run - RAMP / 2)
+        out += [Message("HDG_HEADING", (90.0 + heading_error) % 360.0, t, "log"),
+                Message("INS_YAW_VEL", 0.0, t, "log")]
+        if k % 2 == 0:
+            out += [Message("GPS_X", x + rng.normal(0, 0.3), t, "log"),
+                    Message("GPS_Y", rng.normal(0, 0.3), t, "log"),
+                    Message("DVL_VX_BODY", speed, t, "log"),
+                    Message("DVL_VY_BODY", 0.0, t, "log"),
+                    Message("TRUTH_X", x, t, "log"), Message("TRUTH_Y", 0.0, t, "log")]
+    return out
+
+
+def _worst_after(result, seconds: float) -> float:  # noqa: ANN001
+    c, tt = result.covariance, result.truth
+    t = np.asarray(c.t)
+    err = np.hypot(np.asarray(c.x) - np.interp(t, tt.t, tt.x),
+                   np.asarray(c.y) - np.interp(t, tt.t, tt.y))
+    return float(err[t - result.start >= seconds].max())
+
+
+def test_a_compass_half_a_turn_out_from_the_start_is_put_right_by_the_gps(monkeypatch) -> None:
+    """The compass 180° out and no bias declared: under way, the dead reckoning runs west
+    while the GPS goes east and is refused from the first second. Three refused fixes that
+    follow on from one another say the filter is off: its position is widened to the fixes
+    and its heading doubted, and the motion sets it right. Without the watch the filter
+    runs on, refusing every fix, until the courses made good between fixes tell."""
+    block = parse_mission(MISSION, "boat.moos").process("pNav")
+    assert block is not None
+    watched = replay(block, _boat(180.0))
+    decisions = [d for d in watched.navigator.fusion.decisions if d.kind == FIX]
+    assert decisions and decisions[0].t - watched.start < STILL + 5.0  # measured 3.4 s in
+    monkeypatch.setattr(fix_watch, "REFUSED_RUN", 10**9)
+    unwatched = replay(block, _boat(180.0))
+    assert not [d for d in unwatched.navigator.fusion.decisions if d.kind == FIX]
+    after = STILL + 10.0
+    assert _worst_after(watched, after) < 3.0
+    # measured: 10.8 m at worst, 22.3 m without the watch
+    assert _worst_after(unwatched, STILL) > 1.5 * _worst_after(watched, STILL)
+
+
+@pytest.mark.parametrize("error", [0.0, 5.0])
+def test_a_sound_filter_never_says_it_is_off(error: float) -> None:
+    block = parse_mission(MISSION, "boat.moos").process("pNav")
+    assert block is not None
+    result = replay(block, _boat(error))
+    assert not [d for d in result.navigator.fusion.decisions if d.kind == FIX]
+    assert math.isfinite(_worst_after(result, 0.0))
