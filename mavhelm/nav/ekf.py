@@ -1208,8 +1208,14 @@ class EKF:
         P[index, :] = 0.0
         P[:, index] = 0.0
         self._offset_prior(P, index)
-        P[I_X, I_X] += position_sigma**2
-        P[I_Y, I_Y] += position_sigma**2
+        self.widen_position(position_sigma)
+
+    def widen_position(self, sigma: float) -> None:
+        """The position's variance widened by ``sigma`` (m) squared on each axis: the next
+        fixes or ranges set it again. Only a diagonal grows: P stays positive definite."""
+        P = self.kf.P
+        P[I_X, I_X] += sigma**2
+        P[I_Y, I_Y] += sigma**2
 
     def doubt_heading(self, sigma: float, wander: float = 0.0, until: float = 0.0) -> None:
         """Raise the heading's 1-σ to at least ``sigma`` (rad): the bias state's when it is

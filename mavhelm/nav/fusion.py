@@ -267,10 +267,10 @@ class Fusion:
         the track cannot tell which one (:mod:`mavhelm.nav.beacon_watch`)."""
         self.beacon_watch = self._new_beacon_watch()
         self.alignment = MotionAlignment()
-        self.fix_watch = FixWatch()
-        """Each position sensor's refused fixes, for a filter gone astray (:meth:`_watch_fix`)."""
         """The orientation sensor's offset from the course made good, for a heading far out
         (:meth:`_align`)."""
+        self.fix_watch = FixWatch()
+        """Each position sensor's refused fixes, for a filter gone astray (:meth:`_watch_fix`)."""
         self._last_fix: tuple[float, float, float] | None = None
         """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
         self.range_alignment = RangeAlignment({b.name: b for b in config.beacons})
@@ -941,7 +941,7 @@ class Fusion:
                                         off)
         if decision is None or self.safety.disagreeing:
             return ekf
-        ekf.reopen_offsets([], off)
+        ekf.widen_position(off)
         self._decide(decision)
         return self._doubt_heading(t)
 
