@@ -1144,15 +1144,18 @@ class Fusion:
     def _try_boot(self, t: float, readings: list[Reading], fixes: list[Fix]) -> None:
         yaw = self._last_yaw if self._last_yaw is not None else 0.0
         sigma_yaw = None if self._last_yaw is not None else math.pi
+        for r in readings:
+            if isinstance(r.obs, Position):
+                self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, beacons=self.config.beacons,
+                               config=self.ekf_config, sigma_xy=max(2.0 * r.obs.sigma, 1.0),
+                               sigma_yaw=sigma_yaw)
+                self._decide(Decision(t, BOOTED, f"EKF started at the first "
+                                      f"{r.sensor.name} fix ({r.obs.x:.1f}, "
+                                      f"{r.obs.y:.1f})"))
+                if self.config.beacons:
+                    self._doubt_from_ranges(t, math.inf)
+                return
         if not self.config.beacons:
-            for r in readings:
-                if isinstance(r.obs, Position):
-                    self.ekf = EKF(t, r.obs.x, r.obs.y, yaw, config=self.ekf_config,
-                                   sigma_xy=max(2.0 * r.obs.sigma, 1.0), sigma_yaw=sigma_yaw)
-                    self._decide(Decision(t, BOOTED, f"EKF started at the first "
-                                          f"{r.sensor.name} fix ({r.obs.x:.1f}, "
-                                          f"{r.obs.y:.1f})"))
-                    return
             return
         for fix in fixes:
             if self._stream and math.hypot(fix.x - self._stream[-1].x,
