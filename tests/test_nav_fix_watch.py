@@ -132,23 +132,12 @@ def test_a_sound_filter_never_says_it_is_off(error: float) -> None:
     assert math.isfinite(_worst_after(result, 0.0))
 
 
-RANGING = """
-LatOrigin = 56.412
-LongOrigin = -5.476
-ProcessConfig = pNav
-{
-    X       = EKF @ 2
-    Y       = EKF @ 2
-    Heading = EKF @ 2
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 0.5
-    SENSOR_BODY_VEL    = DVL -> dvl ~ 0.02, 0.02
+RANGING = MISSION.replace("    SENSOR_BODY_VEL    = INS -> gyro ~ 0.5\n", """\
     SENSOR_RANGE       = RNG -> radio ~ 0.3
     BEACON = 1 @ -60,-60,0
     BEACON = 2 @ 160,-50,0
     BEACON = 3 @ 50,160,0
-}
-"""
+""")
 
 
 def test_a_gps_boat_among_beacons_started_under_way_boots_from_its_first_fix() -> None:
