@@ -46,10 +46,6 @@ class FixWatch:
         self._run: dict[str, int] = {}
         """Per sensor, its fixes refused in a row, each within reach; -1 after a jump."""
 
-    def clear(self) -> None:
-        self._last.clear()
-        self._run.clear()
-
     def heard(self, t: float, sensor: str, x: float, y: float, sigma: float, accepted: bool,
               speed: float, innovation: float) -> Decision | None:
         last = self._last.get(sensor)
