@@ -162,10 +162,10 @@ def test_a_heading_sensor_turned_from_the_start_is_righted_by_the_ranges(plaza, 
     bias's drift are held. 0.56 m RMS (seeds 1-8 0.51-0.57 m, the ranges asked every
     second; 0.55-0.63 m every two), 0.92 m when the ranges needed 15 m of travel (the answer
     at 87 s) and those states learned the turn (seeds 1-8 0.64-0.94 m)."""
-    _alog, mission = plaza
+    alog, mission = plaza
     block = load_mission(mission).process("pNav")
     assert block is not None
-    reading = read_alog(_alog)[:400]
+    reading = read_alog(alog)[:400]
     heading = next(m for m in reading if m.name == "ODOM_HEADING")
     turned = next(m for m in with_fault("heading_offset", reading, layout_of(block), 1)
                   if m.name == "ODOM_HEADING" and m.time == heading.time)

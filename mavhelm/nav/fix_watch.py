@@ -31,7 +31,8 @@ from mavhelm.nav.filter_safety import FIX, Decision
 
 REFUSED_RUN: Final = 3
 """Fixes refused in a row, each within reach, before the filter is judged off (one or two
-are a noisy fix; a GPS refused three times in a row by an honest filter is one in a million)."""
+are a noisy fix: the gate refuses one honest fix in a thousand, ``EKF_GATE`` 0.999, so three
+in a row from an honest filter are one in 10⁹ if independent)."""
 REACH_SIGMAS: Final = 3.0
 """The fix's σ (per axis, both axes) allowed beyond the distance the speed covers."""
 
