@@ -19,7 +19,7 @@ def rig():
         for name, value in posts.items():
             bus.notify(name, value, "test")
         before = len(lines)
-        console.on_mail(bus.fetch(console.name), clock.now())
+        console.take(bus.fetch(console.name), clock.now())
         return lines[before:]
 
     return tick
@@ -54,7 +54,7 @@ def test_wall_clock_times_are_shown_as_time_of_day():
     console = StatusConsole(bus, lines.append)
     bus.subscribe(console.name, console.subscriptions())
     bus.notify("MISSION_ENDED", "AllStop", "pHelm")
-    console.on_mail(bus.fetch(console.name), clock.now())
+    console.take(bus.fetch(console.name), clock.now())
     assert lines == ["10:53:20.2  MISSION ENDED (AllStop holds the vehicle)"]
 
 
@@ -69,7 +69,7 @@ def test_the_helms_events_reach_the_ground_station_with_severities_and_a_rate_li
         for name, value in values.items():
             bus.notify(name, value, "test")
         before = len(sent)
-        console.on_mail(bus.fetch(console.name), clock.now())
+        console.take(bus.fetch(console.name), clock.now())
         return sent[before:]
 
     assert post(AP_MODE="GUIDED", AP_LINK=1.0, MAVLINK_LINK="open") == [], "the GCS knows those"

@@ -81,6 +81,7 @@ def test_the_notes_reach_the_console_once_as_notices():
     companion.bus.subscribe("test", {NOTE_VARIABLE})
     for t in (0.1, 0.2, 0.3):
         companion.tick(t)
+        companion.idle()
     posted = [m.string for m in companion.bus.fetch("test")]
     companion.close()
     assert posted == mission_notes(companion.mission)

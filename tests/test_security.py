@@ -191,7 +191,7 @@ def test_a_refusal_is_a_typed_event_on_the_bus_the_console_and_the_wire(tmp_path
     bus = Bus(SimClock(0.0))
     console = StatusConsole(bus, lines.append)
     msg = bus.notify("MAVLINK_SENDER_REFUSED", event.to_bus(), "iMAVLink")
-    console.on_mail([msg], 0.0)
+    console.take([msg], 0.0)
     assert lines[-1].endswith("REFUSED COMMAND_LONG USER_1 from 77:191: not an allowed sender "
                               "(3 refused so far)")
     assert console.status.refused == 3

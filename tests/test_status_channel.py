@@ -139,7 +139,7 @@ def test_the_console_sends_every_event_and_a_snapshot_a_second_through_the_tunne
             bus.notify(name, value, "test")
         before = len(payloads)
         console.on_mail(bus.fetch(console.name), clock.now())
-        console.iterate(clock.now())
+        console.idle()
         return [decode(p) for p in payloads[before:]]
 
     first = tick(AP_MODE="GUIDED", TASK_STARTED="South", AP_STATUSTEXT="Throttle armed")

@@ -179,7 +179,7 @@ class StatusConsole(App):
     """Turns the bus into status events, keeps the state they build (``status``), prints
     them through ``echo``, sends the helm's to the ground station through
     ``statustext(text, severity)`` and every one, with a snapshot each second, through
-    ``tunnel(payload)``."""
+    ``tunnel(payload)``: all in the loop's idle time (``idle``), after the tick."""
 
     name = "console"
 
@@ -202,11 +202,24 @@ class StatusConsole(App):
         self._snapshot_payload = b""
         """The last snapshot sent and its payload: most seconds nothing in it has changed."""
         self.gcs_dropped = 0
+        self._pending: list[Message] = []
 
     def subscriptions(self) -> set[str]:
         return {"*"}
 
     def on_mail(self, mail: list[Message], now: float) -> None:
+        self._pending += mail
+
+    def idle(self) -> None:
+        """The tick's events told once its commands are out: lines, STATUSTEXT and the
+        status channel can wait, the autopilot's commands cannot."""
+        now = self.bus.clock.now()
+        mail, self._pending = self._pending, []
+        self.take(mail, now)
+        self._send_snapshot(now)
+
+    def take(self, mail: list[Message], now: float) -> None:
+        """Every event in ``mail``, told now."""
         for msg in mail:
             event = self._events.of(msg)
             if event is not None:
@@ -225,7 +238,7 @@ class StatusConsole(App):
         if self.tunnel is not None and self._tunnelled(event, shown, now):
             self.tunnel(encode(event))
 
-    def iterate(self, now: float) -> None:
+    def _send_snapshot(self, now: float) -> None:
         if self.tunnel is None:
             return
         if self._next_snapshot is None or now >= self._next_snapshot:
