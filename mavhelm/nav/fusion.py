@@ -252,6 +252,9 @@ class Fusion:
         """Heading sensors the motion found read the wrong way round, where a rate turned
         against them (:meth:`_test_sense`): their readings are taken negated."""
         self._sense_test: tuple[float, float, str, str] | None = None
+        self._sense_open_at = -math.inf
+        """When a sense test was last open: the filter's heading then turned with a rate in
+        question, and the range alignment's window holds it where the sensor was refused."""
         """While a rate turns against a heading: (until when and when next the motion is
         asked which of the two is wrong, the rate, the heading sensor)."""
         self._sense_said: bool | None = None
@@ -283,7 +286,6 @@ class Fusion:
         self._questioned = (-math.inf, 0.0)
         """(when last asked, s under way since the ranges were first asked) for
         :meth:`_heading_in_question`."""
-        self._contradicted_at = -math.inf
         """When a heading sensor was last refused as contradicting the motion."""
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
@@ -509,6 +511,7 @@ class Fusion:
                     self._log(r, "waiting")
                 return
         if self._sense_test is not None:
+            self._sense_open_at = t
             kept = self._undecided(kept)
         if kept:
             self._update(t, kept)
@@ -543,6 +546,7 @@ class Fusion:
                 for finding in sense.heading(f"sensor {r.sensor.name} ({r.sensor.source})", obs.t,
                                              obs.z):
                     told = self.config.beacons or self._last_fix is not None
+                    self.range_alignment.restore_refused()
                     self._sense_test = ((t + SENSE_TIME, t, finding.sensor, r.sensor.name)
                                         if finding.reversed and told else None)
                     self._sense_said = None
@@ -700,10 +704,8 @@ class Fusion:
         until, next_at = self._range_doubt
         ekf = self.ekf
         if (ekf is None or t > until or t < next_at or not self._heading_coupled
-                or not self.config.beacons):
+                or not self.config.beacons or t - self._sense_open_at < RANGE_WINDOW):
             return
-        if t - self._contradicted_at < RANGE_WINDOW:
-            return  # the window's track bends where a kicked or stuck sensor was refused
         self._range_doubt = (until, t + RANGE_CHECK_EVERY)
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
@@ -1023,8 +1025,9 @@ class Fusion:
             decision = watch.heading(t, r.sensor.name, accepted)
             if decision is not None:
                 self._decide(decision)
-            if watch.contradicting:
-                self._contradicted_at = t
+            if not accepted and self.range_alignment.beacons and self._sense_test is None:
+                bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+                self.range_alignment.refused_heading(r.obs.t, ekf.x.item(I_H) + bias)
             return
         if not isinstance(r.obs, Range | Position) or not accepted:
             return  # an outlier is the gate's business: a wrong heading shows first
