@@ -194,12 +194,29 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     has_depth = _check_filters(settings, sensors, block)
     integrated = bool(integrated_sources(sensors))
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
-                      velocity_follows_heading=settings[FIXEDSIDESLIP.attribute] is not None,
+                      velocity_follows_heading=_velocity_follows_heading(settings, sensors),
                       estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
     positions = any(s.type in POSITION_TYPES for s in sensors)
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
                          speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions)
     return sensors, Fusion(config)
+
+
+def _velocity_follows_heading(settings: dict, sensors: list[SensorSpec]) -> bool:
+    """Whether the EKF turns the velocity with the yaw rate and lets the speed change only
+    gently once under way (:data:`mavhelm.nav.ekf.ALONG_TRACK`): a hull that moves along its
+    bow (``FIXEDSIDESLIP``), or a vehicle whose heading is sensed and whose speed no sensor
+    measures (no ``SENSOR_BODY_VEL``). There the speed comes from position fixes alone, and
+    the same acceleration noise in every direction, which a turn needs across the track,
+    left 1 Hz GPS (2 m) and a compass a NAV_SPEED of 0.49 m/s RMS on legs at 2 m/s; turned
+    with the heading, 0.20 m/s, and 0.24-0.32 m/s in a current of 0.5-1 m/s across
+    the legs, where the velocity does not follow the bow (no worse, 0.56 m/s, for a vehicle
+    moving sideways). Not with a body-velocity sensor, which measures the speed itself: on
+    Plaza1's odometry it doubled the error (0.36 → 0.72 m RMS)."""
+    if settings[FIXEDSIDESLIP.attribute] is not None:
+        return True
+    types = {s.type for s in sensors}
+    return "ORIENTATION" in types and "BODY_VEL" not in types
 
 
 def _check_names(block: Block) -> None:
