@@ -252,11 +252,11 @@ class Fusion:
         """Heading sensors the motion found read the wrong way round, where a rate turned
         against them (:meth:`_test_sense`): their readings are taken negated."""
         self._sense_test: tuple[float, float, str, str] | None = None
-        self._sense_open_at = -math.inf
-        """When a sense test was last open: the filter's heading then turned with a rate in
-        question, and the range alignment's window holds it where the sensor was refused."""
         """While a rate turns against a heading: (until when and when next the motion is
         asked which of the two is wrong, the rate, the heading sensor)."""
+        self._sense_open_at = -math.inf
+        """When a sense test was last open: the ranges are not asked for the heading within
+        a window of it (the track then turned with a rate in question)."""
         self._sense_said: bool | None = None
         """The motion's last answer to it, which the next must confirm."""
         self._heading_coupled = config.fixed_sideslip is not None
@@ -286,7 +286,6 @@ class Fusion:
         self._questioned = (-math.inf, 0.0)
         """(when last asked, s under way since the ranges were first asked) for
         :meth:`_heading_in_question`."""
-        """When a heading sensor was last refused as contradicting the motion."""
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""

@@ -130,9 +130,12 @@ class RangeAlignment:
                 break
             if headings[k][0] < t:
                 break
-        if headings and len(self._refused) > len(headings):
-            first = headings[0][0]
-            self._refused = {k: v for k, v in self._refused.items() if k >= first}
+        refused = self._refused
+        while refused and headings:  # in time order: the oldest first
+            oldest = next(iter(refused))
+            if oldest >= headings[0][0]:
+                break
+            del refused[oldest]
 
     def restore_refused(self) -> None:
         """The refused readings back as the sensor gave them: the filter's own heading, which
