@@ -91,3 +91,20 @@ def test_states_posted_every_heartbeat_are_shown_only_when_they_change():
     assert tick(2.0, AP_MODE="MANUAL") == []
     assert tick(9.0, AP_MODE="MANUAL") == [], "not even after the quiet time"
     assert tick(9.5, AP_MODE="GUIDED") == ["t+     9.5s  autopilot mode GUIDED"]
+
+
+def test_the_tick_only_hands_the_console_its_mail_the_idle_time_tells_it():
+    """The console's lines wait for the loop's idle time, after the tick's commands are out."""
+    clock = SimClock(0.0)
+    bus = Bus(clock)
+    lines: list[str] = []
+    console = StatusConsole(bus, lines.append)
+    bus.subscribe(console.name, console.subscriptions())
+    bus.notify("MISSION_ENDED", "AllStop", "pHelm")
+    console.on_mail(bus.fetch(console.name), clock.now())
+    console.iterate(clock.now())
+    assert lines == []
+    console.idle()
+    assert lines == ["t+     0.0s  MISSION ENDED (AllStop holds the vehicle)"]
+    console.idle()
+    assert len(lines) == 1, "told once"
