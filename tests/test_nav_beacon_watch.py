@@ -239,8 +239,8 @@ def test_a_bad_range_at_the_boot_does_not_lock_a_beacon_out_for_good() -> None:
     # that rule, five of one beacon's, agreeing, said the same at 9.5 s)
     assert len(said) == 1 and "the filter is off, not a beacon" in said[0].why
     assert said[0].why.endswith("re-opened") and said[0].t < 20.0
-    _, _, tried, refused = fusion.nis["ranger"]
-    assert tried == 400 and refused < 20
+    score = fusion.nis["ranger"]
+    assert score.n == 400 and score.rejected < 20
     ekf = fusion.ekf
     assert ekf is not None
     assert math.hypot(float(ekf.x[0, 0]) - 30.0, float(ekf.x[1, 0]) - 40.0) < 1.0

@@ -20,6 +20,7 @@ from mavhelm.nav.filter_safety import (
     REINITIALISED,
     FilterSafety,
 )
+from mavhelm.nav.fusion import NisTally
 from mavhelm.nav.heading_watch import (
     CONTRADICTION_TIME,
     DOUBT_WINDOW,
@@ -152,6 +153,22 @@ def test_nees_of_an_honest_covariance_is_two_and_inside_the_band() -> None:
                  np.zeros(n), np.zeros(n))
     assert proud.mean == pytest.approx(8.0, rel=0.1) and proud.above > 0.3
     assert NEES_BAND[0] < 0.06 and 7.3 < NEES_BAND[1] < 7.4
+
+
+
+def test_a_sensors_nis_tally_tells_an_honest_noise_from_a_cautious_one() -> None:
+    """Honest χ² distances fall 95 % inside the band of their degrees of freedom, with the
+    mean per dof near 1; a σ declared five times too large puts half of them below it."""
+    rng = np.random.default_rng(5)
+    honest, cautious = NisTally(), NisTally()
+    for d2 in rng.chisquare(2, 4000):
+        honest.add(float(d2), 2, accepted=True)
+        cautious.add(float(d2) / 25.0, 2, accepted=True)
+    honest.add(40.0, 2, accepted=False)
+    assert honest.total / honest.dof == pytest.approx(1.0, abs=0.05)
+    assert honest.inside / (honest.n - honest.rejected) == pytest.approx(0.95, abs=0.015)
+    assert honest.rejected == 1 and honest.n == 4001
+    assert cautious.below / cautious.n > 0.35 and cautious.above == 0
 
 
 LAYOUT = Layout(("C",), ("R",), ("G",), (Beacon("1", 0.0, 0.0), Beacon("2", 50.0, 0.0)))

@@ -35,6 +35,7 @@ import numpy as np
 
 from mavhelm.nav.alignment import MAX_SPREAD, MotionAlignment, Sense
 from mavhelm.nav.beacon_watch import BeaconWatch
+from mavhelm.nav.chi_square import chi2_ppf
 from mavhelm.nav.ekf import (
     ALONG_TRACK,
     EKF,
@@ -151,6 +152,44 @@ which of the two turns the wrong way (:meth:`Fusion._test_sense`), and the filte
 neither; untold by then, the rate is taken negated and the heading as it reads."""
 SENSE_CHECK_EVERY = 2.0
 """s between two such asks (each fits the track both ways round, sixteen fits)."""
+
+
+@dataclass
+class NisTally:
+    """One sensor's innovations: the χ² distances of its accepted readings and their degrees
+    of freedom summed (``total / dof`` near 1: its noise told right), its readings, those
+    rejected, and how many accepted ones fell below and above the two-sided 95 % χ² band of
+    their degrees of freedom (95 % of them inside when the noise and the filter's
+    uncertainty are both told right; below: both too cautious)."""
+
+    total: float = 0.0
+    dof: int = 0
+    n: int = 0
+    rejected: int = 0
+    below: int = 0
+    above: int = 0
+
+    @property
+    def inside(self) -> int:
+        return self.n - self.rejected - self.below - self.above
+
+    def add(self, d2: float, dof: int, accepted: bool) -> None:
+        self.n += 1
+        if not accepted:
+            self.rejected += 1
+            return
+        self.total += d2
+        self.dof += dof
+        band = _NIS_BANDS.get(dof)
+        if band is None:
+            band = _NIS_BANDS[dof] = (chi2_ppf(0.025, dof), chi2_ppf(0.975, dof))
+        if d2 < band[0]:
+            self.below += 1
+        elif d2 > band[1]:
+            self.above += 1
+
+
+_NIS_BANDS: dict[int, tuple[float, float]] = {}
 
 
 @dataclass(frozen=True)
@@ -289,9 +328,8 @@ class Fusion:
         self._heading_scale = (1.0, 0.0)
         """(σ scale of the heading readings, until when): a doubted heading without a bias
         state to absorb its error is down-weighted."""
-        self.nis: dict[str, list[float]] = {}
-        """Per sensor: [sum of χ² distances of the accepted readings, their degrees of
-        freedom, readings, readings rejected]: NIS/dof near 1 is a sensor noise told right."""
+        self.nis: dict[str, NisTally] = {}
+        """Per sensor, its innovations' tally."""
         self._olog: list[str | OlogEntry] = []
         self._xlog: list[str | XlogEntry] = []
         """The .olog and .xlog lines since they were last taken: in a tick only what they
@@ -1109,13 +1147,8 @@ class Fusion:
     def _score(self, sensor: str, d2: float, dof: int, accepted: bool) -> None:
         tally = self.nis.get(sensor)
         if tally is None:
-            tally = self.nis[sensor] = [0.0, 0.0, 0.0, 0.0]
-        tally[2] += 1
-        if accepted:
-            tally[0] += d2
-            tally[1] += dof
-        else:
-            tally[3] += 1
+            tally = self.nis[sensor] = NisTally()
+        tally.add(d2, dof, accepted)
 
     def _channel_agrees(self, r: Reading) -> bool:
         rule = self._rules.get(r.sensor.name)

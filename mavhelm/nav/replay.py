@@ -169,10 +169,13 @@ class ReplayResult:
             counts = ", ".join(f"{k} {v}" for k, v in fusion.counts.items() if v)
             lines.append(f"observations: {counts}; LSQ fixes {fusion.fixes}, "
                          f"re-initialisations {fusion.reinitialisations}")
-            nis = [f"{name} {total / dof:.2f} ({int(rejected)} of {int(n)} rejected)"
-                   for name, (total, dof, n, rejected) in fusion.nis.items() if dof]
+            nis = [f"{name} {s.total / s.dof:.2f} ({_share(s.inside, s.n - s.rejected)} "
+                   f"inside, {_share(s.below, s.n - s.rejected)} below, "
+                   f"{_share(s.above, s.n - s.rejected)} above; {s.rejected} of {s.n} rejected)"
+                   for name, s in fusion.nis.items() if s.dof]
             if nis:
-                lines.append("NIS per dof by sensor (1 when its noise is told right): "
+                lines.append("NIS per dof by sensor (1 when its noise is told right; accepted "
+                             "readings inside the 95 % χ² band, below and above it): "
                              + ", ".join(nis))
             made = [d.kind for d in fusion.decisions]
             lines.append("decisions: " + ", ".join(f"{kind} {made.count(kind)}"
@@ -189,6 +192,10 @@ class ReplayResult:
         if self.failure:
             lines.append(f"NAVIGATION FAILURE: {self.failure}")
         return lines
+
+
+def _share(part: int, whole: int) -> str:
+    return f"{100 * part / whole:.0f} %" if whole else "-"
 
 
 def _learned(final: Estimate) -> list[str]:
