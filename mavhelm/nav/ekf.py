@@ -636,6 +636,12 @@ class EKF:
         self.kf.Q = np.zeros((self.dim, self.dim))
         self._wander: tuple[float, float] | None = None
         """(extra bias variance rate, until when) after a heading doubt."""
+        self.follows_heading = self.config.velocity_follows_heading
+        """Whether the prediction turns the velocity with the yaw rate (and ``along_track``
+        applies): the config's ``velocity_follows_heading``, or its owner's decision at run
+        time."""
+        self._turning_velocity = False
+        """Whether ``F`` holds the velocity's turn from the last prediction."""
         self.along_track = ALONG_TRACK
         """The share of the XY acceleration noise along the bow (``velocity_follows_heading``):
         ``ALONG_TRACK`` while the vehicle cruises; its owner sets 1 while it starts or stops,
@@ -829,7 +835,11 @@ class EKF:
         kf = self.kf
         F = self._F
         mobile = self.config.mobile
-        follows = mobile and self.config.velocity_follows_heading
+        follows = mobile and self.follows_heading
+        if self._turning_velocity and not follows:
+            F[I_VX, I_VX], F[I_VX, I_VY], F[I_VY, I_VX], F[I_VY, I_VY] = 1.0, 0.0, 0.0, 1.0
+            F[I_VX, I_VH] = F[I_VY, I_VH] = 0.0
+        self._turning_velocity = follows
         if mobile and dt != self._f_dt:
             self._f_dt = dt
             for i, j in self._rate_of:
@@ -1305,6 +1315,7 @@ class EKF:
         twin.warnings, twin.rate_resets, twin.recoveries = (self.warnings, self.rate_resets,
                                                              self.recoveries)
         twin._good, twin._wander, twin.along_track = self._good, self._wander, self.along_track
+        twin.follows_heading = self.follows_heading or config.velocity_follows_heading
         twin.hold_speed_scale = self.hold_speed_scale
         twin.hold_drift = self.hold_drift
         return twin

@@ -228,6 +228,11 @@ class FusionConfig:
     """Add the body-velocity speed-scale state at the first speed a body-velocity sensor
     gives (:meth:`Fusion._add_speed_scale`); the navigator says so only where a position
     sensor makes the scale observable."""
+    follow_unless_speed: bool = False
+    """A heading is sensed and body-velocity sensors are declared, but no ``FIXEDSIDESLIP``:
+    until one of them gives a speed (a gyro gives only the yaw rate), the velocity follows
+    the heading once under way, as for a mission without them (:mod:`mavhelm.nav.navigator`,
+    ``_velocity_follows_heading``)."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -293,6 +298,8 @@ class Fusion:
         self._sense_test: tuple[float, float, str, str] | None = None
         """While a rate turns against a heading: (until when and when next the motion is
         asked which of the two is wrong, the rate, the heading sensor)."""
+        self._speed_heard = False
+        """Whether a body-velocity sensor has given a speed (not only a yaw rate)."""
         self._sense_open_at = -math.inf
         """When a sense test was last open: the ranges are not asked for the heading within
         a window of it (the track then turned with a rate in question)."""
@@ -531,6 +538,10 @@ class Fusion:
             cruising = self.heading_watch.under_way_for(t) >= UNDER_WAY_TIME
             # no heading to take the speed along while it is open which way the sensor reads
             self.ekf.along_track = ALONG_TRACK if cruising and self._sense_test is None else 1.0
+            if self.config.follow_unless_speed:
+                self._speed_heard = self._speed_heard or any(
+                    isinstance(r.obs, BodyVelocity) and r.obs.forward is not None for r in kept)
+                self.ekf.follows_heading = cruising and not self._speed_heard
             # nor is the speeds' scale learned from a track the heading may have turned
             # (the bias's drift neither) while the ranges are still asked for the heading
             in_question = self._heading_in_question(t)

@@ -197,8 +197,11 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
                       velocity_follows_heading=_velocity_follows_heading(settings, sensors),
                       estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
     positions = any(s.type in POSITION_TYPES for s in sensors)
+    types = {s.type for s in sensors}
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
-                         speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions)
+                         speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions,
+                         follow_unless_speed=(settings[FIXEDSIDESLIP.attribute] is None
+                                              and {"ORIENTATION", "BODY_VEL"} <= types))
     return sensors, Fusion(config)
 
 
@@ -212,7 +215,9 @@ def _velocity_follows_heading(settings: dict, sensors: list[SensorSpec]) -> bool
     with the heading, 0.20 m/s, and 0.24-0.32 m/s in a current of 0.5-1 m/s across
     the legs, where the velocity does not follow the bow (no worse, 0.56 m/s, for a vehicle
     moving sideways). Not with a body-velocity sensor, which measures the speed itself: on
-    Plaza1's odometry it doubled the error (0.36 → 0.72 m RMS)."""
+    Plaza1's odometry it doubled the error (0.36 → 0.72 m RMS). Whether one gives a speed
+    (a gyro gives only the yaw rate) is known only once it is heard: the fusion decides
+    (``FusionConfig.follow_unless_speed``)."""
     if settings[FIXEDSIDESLIP.attribute] is not None:
         return True
     types = {s.type for s in sensors}

@@ -266,7 +266,7 @@ FIXEDSIDESLIP = Param("FIXEDSIDESLIP", FixedLine(Number(-5.0, 5.0), "m/s", 0.001
                       attr="fixed_sideslip", doc="an artificial starboard-speed observation "
                       "every tick: the hull moves along its bow (0 @ 0.3 for a boat in little "
                       "current); the EKF then also turns its velocity with the yaw rate (as "
-                      "it does unasked with a heading sensor and no SENSOR_BODY_VEL)")
+                      "it does unasked with a heading sensor and no sensor giving a speed)")
 LBL_SOUND_SPEED = Param("LBL_SOUND_SPEED", Number(1300.0, 1700.0), 1500.0, "m/s",
                         "speed of sound for LBL travel times", attr="sound_speed",
                         aliases=(Alias("SV"),))
