@@ -47,13 +47,19 @@ def test_a_repeated_line_is_held_back_then_counted():
         "t+     6.0s  GPS_WARNING: flaky  (and 2 more like it)"]
 
 
-def test_wall_clock_times_are_shown_as_time_of_day():
-    clock = SimClock(1_764_500_000.25)
+def _mission_ended(now: float) -> tuple[SimClock, Bus, StatusConsole, list[str]]:
+    """A console on its bus at ``now``, MISSION_ENDED posted and not yet fetched."""
+    clock = SimClock(now)
     bus = Bus(clock)
     lines: list[str] = []
     console = StatusConsole(bus, lines.append)
     bus.subscribe(console.name, console.subscriptions())
     bus.notify("MISSION_ENDED", "AllStop", "pHelm")
+    return clock, bus, console, lines
+
+
+def test_wall_clock_times_are_shown_as_time_of_day():
+    clock, bus, console, lines = _mission_ended(1_764_500_000.25)
     console.take(bus.fetch(console.name), clock.now())
     assert lines == ["10:53:20.2  MISSION ENDED (AllStop holds the vehicle)"]
 
@@ -95,12 +101,7 @@ def test_states_posted_every_heartbeat_are_shown_only_when_they_change():
 
 def test_the_tick_only_hands_the_console_its_mail_the_idle_time_tells_it():
     """The console's lines wait for the loop's idle time, after the tick's commands are out."""
-    clock = SimClock(0.0)
-    bus = Bus(clock)
-    lines: list[str] = []
-    console = StatusConsole(bus, lines.append)
-    bus.subscribe(console.name, console.subscriptions())
-    bus.notify("MISSION_ENDED", "AllStop", "pHelm")
+    clock, bus, console, lines = _mission_ended(0.0)
     console.on_mail(bus.fetch(console.name), clock.now())
     console.iterate(clock.now())
     assert lines == []

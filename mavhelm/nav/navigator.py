@@ -193,19 +193,18 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     _check_ranging(settings, sensors, block)
     has_depth = _check_filters(settings, sensors, block)
     integrated = bool(integrated_sources(sensors))
+    follows, unless_speed = _velocity_follows_heading(settings, sensors)
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
-                      velocity_follows_heading=_velocity_follows_heading(settings, sensors),
+                      velocity_follows_heading=follows,
                       estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
     positions = any(s.type in POSITION_TYPES for s in sensors)
-    types = {s.type for s in sensors}
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
                          speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions,
-                         follow_unless_speed=(settings[FIXEDSIDESLIP.attribute] is None
-                                              and {"ORIENTATION", "BODY_VEL"} <= types))
+                         follow_unless_speed=unless_speed)
     return sensors, Fusion(config)
 
 
-def _velocity_follows_heading(settings: dict, sensors: list[SensorSpec]) -> bool:
+def _velocity_follows_heading(settings: dict, sensors: list[SensorSpec]) -> tuple[bool, bool]:
     """Whether the EKF turns the velocity with the yaw rate and lets the speed change only
     gently once under way (:data:`mavhelm.nav.ekf.ALONG_TRACK`): a hull that moves along its
     bow (``FIXEDSIDESLIP``), or a vehicle whose heading is sensed and whose speed no sensor
@@ -217,11 +216,13 @@ def _velocity_follows_heading(settings: dict, sensors: list[SensorSpec]) -> bool
     moving sideways). Not with a body-velocity sensor, which measures the speed itself: on
     Plaza1's odometry it doubled the error (0.36 → 0.72 m RMS). Whether one gives a speed
     (a gyro gives only the yaw rate) is known only once it is heard: the fusion decides
-    (``FusionConfig.follow_unless_speed``)."""
+    (``FusionConfig.follow_unless_speed``). Returns (from the start, unless a speed is
+    heard)."""
     if settings[FIXEDSIDESLIP.attribute] is not None:
-        return True
+        return True, False
     types = {s.type for s in sensors}
-    return "ORIENTATION" in types and "BODY_VEL" not in types
+    sensed = "ORIENTATION" in types
+    return sensed and "BODY_VEL" not in types, sensed and "BODY_VEL" in types
 
 
 def _check_names(block: Block) -> None:
