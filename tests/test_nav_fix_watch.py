@@ -172,3 +172,82 @@ def test_a_gps_boat_among_beacons_started_under_way_boots_from_its_first_fix() -
     assert booted and "first gps fix" in booted[0].why and booted[0].t - result.start < 0.5
     assert result.failure is None
     assert result.accuracy().rms < 1.0
+
+
+def test_a_jump_among_refused_fixes_holds_the_judgement_for_a_glitchs_time_not_for_ever(
+) -> None:
+    """A fix beyond reach among refused ones (one noisy fix, or a glitch's start) starts the
+    count again and holds the judgement for ``GLITCH_TIME``: still refused, still following on
+    from one another after it, the fixes are no glitch and the filter is off."""
+    watch = FixWatch()
+    watch.heard(0.0, "gps", 0.0, 0.0, 2.0, True, 3.0, 0.0)
+    watch.heard(0.2, "gps", 0.6, 0.0, 2.0, False, 3.0, 5.0)
+    assert watch.heard(0.4, "gps", 30.0, 0.0, 2.0, False, 3.0, 30.0) is None  # a jump
+    said = []
+    for k in range(1, 60):
+        t = 0.4 + 0.2 * k
+        said.append((t, watch.heard(t, "gps", 30.0 + 0.6 * k, 0.0, 2.0, False, 3.0, 30.0)))
+    first = next(t for t, d in said if d is not None)
+    assert first == pytest.approx(0.4 + fix_watch.GLITCH_TIME, abs=0.21)
+    decision = dict(said)[first]
+    assert decision is not None and "since they jumped" in decision.why
+
+
+
+BOX = """
+LatOrigin = 56.412
+LongOrigin = -5.476
+ProcessConfig = pNav
+{
+    X       = EKF @ 2
+    Y       = EKF @ 2
+    Heading = EKF @ 2
+    SENSOR_XY          = GPS -> gps ~ 2
+    SENSOR_ORIENTATION = HDG -> compass ~ 1
+    FIXEDSIDESLIP      = 0 @ 0.3
+    EKF_YAW_BIAS       = true
+}
+"""
+
+
+def _box_with_a_mirrored_compass(seconds: float = 300.0) -> list[Message]:
+    """A boat at 3 m/s round a box (legs of 33 s, quarter turns of 10 s): 5 Hz GPS with 2 m
+    of noise and, every 30 s, one fix 20 m out (multipath); a 10 Hz compass read the wrong
+    way round (70° less the true heading); the truth."""
+    rng = np.random.default_rng(7)
+    out = []
+    x = y = 0.0
+    heading = 90.0
+    for k in range(int(seconds * 10)):
+        t = 3000.0 + 0.1 * k
+        rate = 9.0 if (0.1 * k) % 43.0 >= 33.0 else 0.0  # deg/s clockwise
+        heading = (heading + rate * 0.1) % 360.0
+        x += 3.0 * math.sin(math.radians(heading)) * 0.1
+        y += 3.0 * math.cos(math.radians(heading)) * 0.1
+        out.append(Message("HDG_HEADING", (70.0 - heading) % 360.0, t, "log"))
+        if k % 2 == 0:
+            outlier = 20.0 if k % 300 == 4 else 0.0
+            out += [Message("GPS_X", x + rng.normal(0, 2.0), t, "log"),
+                    Message("GPS_Y", y + outlier + rng.normal(0, 2.0), t, "log"),
+                    Message("TRUTH_X", x, t, "log"), Message("TRUTH_Y", y, t, "log")]
+    return out
+
+
+def test_a_noisy_fix_among_the_refused_does_not_shut_the_watch(monkeypatch) -> None:
+    """GPS and a compass read the wrong way round: the compass turns the dead reckoning
+    against every turn and the fixes are refused, and now and then one fix lies 20 m out, a
+    jump. A jump once stopped the count until a fix was accepted, which never came while the
+    filter was off (the real ArduPilot SITL's boat, its compass so read: 200 m from its GPS
+    for 90 s, 77 m RMS). The watch now judges again a glitch's time after it."""
+    block = parse_mission(BOX, "box.moos").process("pNav")
+    assert block is not None
+    log = _box_with_a_mirrored_compass()
+    watched = replay(block, log)
+    fixes = [d for d in watched.navigator.fusion.decisions if d.kind == FIX]
+    assert any("since they jumped" in d.why for d in fixes)
+    monkeypatch.setattr(fix_watch, "GLITCH_TIME", math.inf)  # a jump shuts the watch
+    shut = replay(block, log)
+    rms, shut_rms = watched.accuracy().rms, shut.accuracy().rms
+    print(f"\nEKF RMS {rms:.1f} m, {shut_rms:.1f} m with the watch shut by a jump")
+    assert rms < 15.0  # measured 9.0 m (the GPS 2.8 m: the compass's sense is not told)
+    assert shut_rms > 5.0 * rms  # measured 111.6 m
