@@ -1265,6 +1265,13 @@ class EKF:
         if self.i_drift is not None:
             self._reset_states((self.i_drift,), (0.0,), self.config.sigma_yaw_drift**2)
 
+    def shift_yaw_bias(self, step: float) -> None:
+        """The heading bias moved by ``step`` (rad), its uncertainty kept: the sensor's own
+        reading stepped (:mod:`mavhelm.nav.heading_kick`), the heading did not."""
+        if self.i_bias is None:
+            raise ValueError("shift_yaw_bias needs the heading-bias state")
+        self.kf.x[self.i_bias, 0] = wrap_angle(self.kf.x.item(self.i_bias) + step)
+
     def realign_heading(self, bias: float, sigma_yaw: float, velocity: tuple[float, float],
                         sigma_velocity: float) -> float:
         """The heading taken from the motion (:mod:`mavhelm.nav.alignment`), the filter's

@@ -69,6 +69,7 @@ from mavhelm.nav.filter_safety import (
     FilterSafety,
 )
 from mavhelm.nav.fix_watch import FixWatch
+from mavhelm.nav.heading_kick import KICK_MIN, HeadingKick
 from mavhelm.nav.heading_watch import (
     ADDED_WANDER_TIME,
     BIAS_WANDER_TIME,
@@ -292,6 +293,11 @@ class Fusion:
         self.stuck_heading = StuckHeading()
         """Heading sensors whose value stands while the vehicle turns, refused until it moves
         (:mod:`mavhelm.nav.stuck_heading`)."""
+        self.heading_kick = HeadingKick()
+        """Heading sensors that jump (:mod:`mavhelm.nav.heading_kick`)."""
+        self.kick_offset = 0.0
+        """rad: the heading sensor's jumps still standing (the bias has them; the ranges'
+        window is given the readings without them)."""
         self.reversed_headings: set[str] = set()
         """Heading sensors the motion found read the wrong way round, where a rate turned
         against them (:meth:`_test_sense`): their readings are taken negated."""
@@ -532,6 +538,8 @@ class Fusion:
             if isinstance(r.obs, Yaw):
                 self._last_yaw = r.obs.z
         kept = self._sensed(t, kept)
+        if self.ekf is not None:
+            self._kicked(t, kept)
         fixes = self._feed_lsq(kept)
         self._feed_alignment(kept, fixes)
         if self.ekf is not None:
@@ -641,7 +649,7 @@ class Fusion:
             if isinstance(obs, Yaw):
                 alignment.add_heading(obs.t, obs.z, bias, held)
                 if ranges is not None:
-                    ranges.add_heading(obs.t, obs.z)
+                    ranges.add_heading(obs.t, obs.z - self.kick_offset)
             elif isinstance(obs, BodyVelocity) and obs.forward is not None:
                 alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
                 if ranges is not None:
@@ -758,6 +766,9 @@ class Fusion:
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
         found = self.range_alignment.estimate(near)
+        if found is not None and self.kick_offset:  # the sensor as it reads, its jump with it
+            found = dataclasses.replace(
+                found, bias=math.remainder(found.bias + self.kick_offset, 2 * math.pi))
         last, self._range_heading = self._range_heading, found
         if (found is None or last is None or found.t - last.t > 2 * RANGE_CHECK_EVERY
                 or abs(math.remainder(found.bias - last.bias, 2 * math.pi)) > MAX_SPREAD):
@@ -977,6 +988,33 @@ class Fusion:
                 self._forget(ekf, self.beacon_watch.weights[name], but=name,
                              fit=self.survey_check.fits.get(name) if name == singled_out else None)
 
+    def _kicked(self, t: float, kept: list[Reading]) -> None:
+        """The slice's headings checked for a jump of their sensor
+        (:mod:`mavhelm.nav.heading_kick`): where the one heading sensor jumped faster than the
+        vehicle turns, the bias state (added if the filter has none and the motion can tell
+        it) steps with it, and the ranges' window is given its readings less the steps still
+        standing (``kick_offset``), the track they fit unbent. With two heading sensors the
+        bias is shared, and the other holds the heading: the gate refuses the jumped one."""
+        kick = self.heading_kick
+        for r in kept:
+            if not isinstance(r.obs, Yaw) or not self._heading_coupled or kick.sensors > 1:
+                continue
+            ekf = self.ekf
+            assert ekf is not None
+            step = kick.step(r.sensor.name, r.obs.t, r.obs.z, r.obs.sigma, ekf.x.item(I_VH),
+                             math.sqrt(ekf.P.item(I_VH, I_VH)))
+            if step is None:
+                continue
+            if ekf.i_bias is None:
+                ekf = self._add_yaw_bias(t)
+            ekf.shift_yaw_bias(step)
+            standing = math.remainder(self.kick_offset + step, 2.0 * math.pi)
+            self.kick_offset = standing if abs(standing) >= KICK_MIN else 0.0
+            self._decide(Decision(t, HEADING, (
+                f"heading sensor {r.sensor.name} jumped {math.degrees(step):+.0f}° between "
+                f"two readings, faster than the vehicle turns: taken as its bias stepping, "
+                f"the heading kept")))
+
     def _watch_fix(self, t: float, sensor: str, fix: Position, accepted: bool,
                    prior: tuple[float, float, float]) -> EKF:
         """A position fix's verdict to the fix watch (:mod:`mavhelm.nav.fix_watch`); when it
@@ -1070,12 +1108,14 @@ class Fusion:
         watch, ekf = self.heading_watch, self.ekf
         assert ekf is not None
         if isinstance(r.obs, Yaw):
+            self.heading_kick.taken(r.sensor.name, r.obs.t, r.obs.z, accepted)
             decision = watch.heading(t, r.sensor.name, accepted)
             if decision is not None:
                 self._decide(decision)
             if not accepted and self.range_alignment.beacons and self._sense_test is None:
                 bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
-                self.range_alignment.refused_heading(r.obs.t, ekf.x.item(I_H) + bias)
+                self.range_alignment.refused_heading(r.obs.t, ekf.x.item(I_H) + bias
+                                                     - self.kick_offset)
             return
         if not isinstance(r.obs, Range | Position) or not accepted:
             return  # an outlier is the gate's business: a wrong heading shows first
