@@ -15,6 +15,7 @@ from mavhelm.nav import fix_watch
 from mavhelm.nav.filter_safety import FIX
 from mavhelm.nav.fix_watch import REFUSED_RUN, FixWatch
 from mavhelm.nav.replay import accuracy, replay
+from tests.support import box_boat
 
 
 def test_fixes_refused_in_a_row_that_follow_on_say_the_filter_is_off() -> None:
@@ -194,54 +195,16 @@ def test_a_jump_among_refused_fixes_holds_the_judgement_for_a_glitchs_time_not_f
 
 
 
-BOX = """
-LatOrigin = 56.412
-LongOrigin = -5.476
-ProcessConfig = pNav
-{
-    X       = EKF @ 2
-    Y       = EKF @ 2
-    Heading = EKF @ 2
-    SENSOR_XY          = GPS -> gps ~ 2
-    SENSOR_ORIENTATION = HDG -> compass ~ 1
-    FIXEDSIDESLIP      = 0 @ 0.3
-    EKF_YAW_BIAS       = true
-}
-"""
-
-
-def _box_with_a_mirrored_compass(seconds: float = 300.0) -> list[Message]:
-    """A boat at 3 m/s round a box (legs of 33 s, quarter turns of 10 s): 5 Hz GPS with 2 m
-    of noise and, every 30 s, one fix 20 m out (multipath); a 10 Hz compass read the wrong
-    way round (70° less the true heading); the truth."""
-    rng = np.random.default_rng(7)
-    out = []
-    x = y = 0.0
-    heading = 90.0
-    for k in range(int(seconds * 10)):
-        t = 3000.0 + 0.1 * k
-        rate = 9.0 if (0.1 * k) % 43.0 >= 33.0 else 0.0  # deg/s clockwise
-        heading = (heading + rate * 0.1) % 360.0
-        x += 3.0 * math.sin(math.radians(heading)) * 0.1
-        y += 3.0 * math.cos(math.radians(heading)) * 0.1
-        out.append(Message("HDG_HEADING", (70.0 - heading) % 360.0, t, "log"))
-        if k % 2 == 0:
-            outlier = 20.0 if k % 300 == 4 else 0.0
-            out += [Message("GPS_X", x + rng.normal(0, 2.0), t, "log"),
-                    Message("GPS_Y", y + outlier + rng.normal(0, 2.0), t, "log"),
-                    Message("TRUTH_X", x, t, "log"), Message("TRUTH_Y", y, t, "log")]
-    return out
-
-
 def test_a_noisy_fix_among_the_refused_does_not_shut_the_watch(monkeypatch) -> None:
     """GPS and a compass read the wrong way round: the compass turns the dead reckoning
     against every turn and the fixes are refused, and now and then one fix lies 20 m out, a
     jump. A jump once stopped the count until a fix was accepted, which never came while the
     filter was off (the real ArduPilot SITL's boat, its compass so read: 200 m from its GPS
     for 90 s, 77 m RMS). The watch now judges again a glitch's time after it."""
-    block = parse_mission(BOX, "box.moos").process("pNav")
+    block = parse_mission(box_boat.MISSION, "box.moos").process("pNav")
     assert block is not None
-    log = _box_with_a_mirrored_compass()
+    # the compass 70° less the true heading; every 150th fix (30 s) 20 m out
+    log = box_boat.box(lambda _t, heading: 70.0 - heading, seed=7, outlier_every=150)
     watched = replay(block, log)
     fixes = [d for d in watched.navigator.fusion.decisions if d.kind == FIX]
     assert any("since they jumped" in d.why for d in fixes)
