@@ -855,6 +855,8 @@ class Fusion:
             self.rate_sense.forgive(rate)
             self.range_alignment.mirror()
             self.alignment.clear()
+            self.heading_kick = HeadingKick()  # its readings negated from now: no step
+            self.kick_offset = -self.kick_offset  # as the window's headings, mirrored
             if self._last_yaw is not None:
                 self._last_yaw = -self._last_yaw
             self._retake_heading()
