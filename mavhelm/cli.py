@@ -14,6 +14,7 @@ from mavhelm.core.errors import LocatedError, SettingError
 def _run(args: argparse.Namespace) -> int:
     from mavhelm.companion.alog import log_dir as mission_log_dir
     from mavhelm.companion.companion import Companion, Plan
+    from mavhelm.companion.console import say
     from mavhelm.core.clock import AutopilotClock, WallClock
 
     if args.web_control and args.web is None:
@@ -28,7 +29,7 @@ def _run(args: argparse.Namespace) -> int:
         raise SettingError(setting, f"the log folder {str(log_dir)!r}", exc) from None
     alog = log_dir / f"{Path(args.mission).stem}_{int(clock.now())}.alog"
     companion = Companion.build(plan.mission, clock, connect=args.connect, alog_path=alog,
-                                echo=lambda line: print(line, flush=True),
+                                echo=say,
                                 tlog_path=alog.with_suffix(".tlog"))
     web = None
     try:
@@ -50,11 +51,12 @@ def _serve_web(companion, args: argparse.Namespace):
     """``--web``: the live page (None without it)."""
     if args.web is None:
         return None
+    from mavhelm.companion.console import say
     from mavhelm.companion.web.view import start_web
 
     try:
         return start_web(companion, args.web, control=args.web_control,
-                         echo=lambda line: print(line, flush=True))
+                         echo=say)
     except OSError as exc:
         raise SettingError("--web", f"the web view on {args.web}", exc) from None
 

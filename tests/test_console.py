@@ -109,3 +109,28 @@ def test_the_tick_only_hands_the_console_its_mail_the_idle_time_tells_it():
     assert lines == ["t+     0.0s  MISSION ENDED (AllStop holds the vehicle)"]
     console.idle()
     assert len(lines) == 1, "told once"
+
+
+def test_a_console_line_is_written_whole_so_a_stop_cannot_split_it(monkeypatch) -> None:
+    """``print`` writes the text and its newline apart: a SIGTERM between the two (raising
+    KeyboardInterrupt) left the line open, and ``mavhelm: stopped`` ran on after it. ``say``
+    writes the line and its newline in one write."""
+    import sys
+
+    from mavhelm.companion.console import say
+
+    class Recorder:
+        def __init__(self) -> None:
+            self.writes: list[str] = []
+
+        def write(self, text: str) -> int:
+            self.writes.append(text)
+            return len(text)
+
+        def flush(self) -> None:
+            pass
+
+    out = Recorder()
+    monkeypatch.setattr(sys, "stdout", out)
+    say("20:55:52.8  helm offline: no connection to the autopilot")
+    assert out.writes == ["20:55:52.8  helm offline: no connection to the autopilot\n"]

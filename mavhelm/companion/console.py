@@ -17,6 +17,7 @@ event three ways:
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 
@@ -166,6 +167,14 @@ class TokenBucket:
             return False
         self._budget -= 1.0
         return True
+
+
+def say(line: str) -> None:
+    """A console line written whole, newline included, in one write: ``print`` writes the
+    text and its end apart, and a SIGTERM between the two (a stop raising KeyboardInterrupt)
+    left the line open for the next one ("…tcp:127.0.0.1:9mavhelm: stopped")."""
+    sys.stdout.write(f"{line}\n")
+    sys.stdout.flush()
 
 
 def _clock_text(now: float) -> str:

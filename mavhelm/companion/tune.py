@@ -28,6 +28,7 @@ from pathlib import Path
 
 from mavhelm.companion.bridge.config import IMAVLINK_SCHEMA
 from mavhelm.companion.companion import Companion
+from mavhelm.companion.console import say
 from mavhelm.core.app import App
 from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import AutopilotClock, WallClock
@@ -294,7 +295,7 @@ def run(args: argparse.Namespace) -> int:
     manoeuvre = Manoeuvre(low_thrust=args.thrust[0], high_thrust=args.thrust[1],
                           step_seconds=args.step_seconds, time_limit=args.time_limit)
     clock = AutopilotClock() if args.clock == "autopilot" else WallClock()
-    echo: Callable[[str], None] = lambda line: print(line, flush=True)  # noqa: E731
+    echo: Callable[[str], None] = say
     folder = Path(tempfile.mkdtemp(prefix="mavhelm-tune-"))
     path = tune_mission(mission, box, manoeuvre, folder)
     companion = Companion.build(path, clock, connect=args.connect,
