@@ -179,6 +179,25 @@ def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:
     assert abs(float(ekf.x[i, 0])) < 0.5
 
 
+def test_every_offset_reopened_with_the_scale_forgets_the_scale_too() -> None:
+    """The range scale every beacon shares learned what a bad range taught the offsets: when
+    every beacon's offset is doubted it goes back to its prior as well; otherwise it is
+    kept."""
+    ekf = _ekf({"A": 0.0, "B": 0.0, "C": 0.0, "D": 0.0})
+    assert ekf.i_scale is not None
+    i = ekf.i_scale
+    ekf.x[i, 0] = -0.2
+    ekf.P[i, i] = 1e-4
+    ekf.P[i, 0] = ekf.P[0, i] = 1e-5
+    ekf.reopen_offsets(["A", "B", "C", "D"], position_sigma=3.0)
+    assert float(ekf.x[i, 0]) == -0.2  # not asked to: kept
+    ekf.reopen_offsets(["A", "B", "C", "D"], position_sigma=3.0, scale=True)
+    assert float(ekf.x[i, 0]) == 0.0
+    assert float(ekf.P[i, i]) == pytest.approx(ekf.config.sigma_range_scale**2)
+    assert np.count_nonzero(ekf.P[i]) == 1
+    assert np.all(np.linalg.eigvalsh(ekf.P) > 0)
+
+
 def test_the_blame_moves_to_a_beacon_that_disagrees_clearly_more_once_settled() -> None:
     ekf = _ekf({"A": 2.0, "B": 0.0, "C": 2.0, "D": 0.0})
     watch = BeaconWatch()

@@ -211,7 +211,7 @@ def test_the_published_uncertainty_is_not_over_confident_on_plaza(report) -> Non
 
 
 OTHER_DRAWS = (("heading_jumps", 3), ("heading_jumps", 5), ("range_outliers", 5),
-               ("range_outliers", 7), ("heading_drift+heading_stuck", 2),
+               ("range_outliers", 7), ("range_outliers", 34), ("heading_drift+heading_stuck", 2),
                ("heading_drift+heading_jumps", 3), ("beacon_moved", 6),
                ("heading_offset+heading_jumps", 1))
 
@@ -311,6 +311,12 @@ def test_other_draws_that_broke_the_floor_stay_under_it(other_draws, fault, seed
     the odometry did not travel is no longer one. Outliers, seed 7: a range 13 m short, the
     first to its beacon, was learned as that beacon's offset and every good range after it
     refused (2.98 m); the offsets' prior now leaves each beacon only 0.5 m of its own.
+    Outliers, seed 34: the very first range 16 m short, taken (the start's σ is 5 m), moved
+    the filter 10 m off and taught the range scale −0.19; the ranges refused after it
+    doubted the filter, whose widened position then settled 28 m off on that scale (−0.26,
+    its σ 0.013) until the LSQ's disagreement re-initialised it 25 s later (3.22 m). Doubted
+    so, the filter now forgets the range scale with the offsets and is re-centred on the
+    LSQ's last fix (0.65 m; the scale alone 0.99 m).
 
     Two faults at once, the heading drifting 180° within five minutes and stuck for five
     (``mavhelm nav replay --fault heading_drift+heading_stuck``): refused while stuck, the

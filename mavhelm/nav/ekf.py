@@ -1203,13 +1203,16 @@ class EKF:
         self._initialise(x, y, yaw, sigma_xy, sigma_yaw)
         self.warnings.append(f"EKF re-initialised to ({x:.1f}, {y:.1f}) at t={self.t:.2f}")
 
-    def reopen_offsets(self, beacons: Iterable[str], position_sigma: float = 0.0) -> None:
+    def reopen_offsets(self, beacons: Iterable[str], position_sigma: float = 0.0,
+                       scale: bool = False) -> None:
         """What the ranges taught the filter, forgotten: the range offsets of ``beacons`` back
         to their priors, value and covariance (uncorrelated with the rest of the state), and
         the position's variance widened by ``position_sigma`` (m) squared, so that the next
-        ranges set them again. Inflating the offsets' variance alone leaves what a bad range
-        taught them in the state. The block is the prior's, its rows otherwise cleared, and
-        a diagonal grows: P stays positive definite."""
+        ranges set them again; with ``scale`` the range scale too (every beacon's ranges
+        doubted: the scale they share learned what the offsets did). Inflating the
+        offsets' variance alone leaves what a bad range taught them in the state. The block
+        is the prior's, its rows otherwise cleared, and a diagonal grows: P stays positive
+        definite."""
         names = list(beacons)
         index = [self._offset_index[name] for name in names]
         x, P = self.kf.x, self.kf.P
@@ -1218,6 +1221,8 @@ class EKF:
         P[index, :] = 0.0
         P[:, index] = 0.0
         self._offset_prior(P, index)
+        if scale and self.i_scale is not None:
+            self._reset_states((self.i_scale,), (0.0,), self.config.sigma_range_scale**2)
         self.widen_position(position_sigma)
 
     def widen_position(self, sigma: float) -> None:

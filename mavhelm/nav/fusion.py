@@ -122,6 +122,9 @@ BOOT_SIGMA = 5.0
 """m: the least 1-σ given to an LSQ fix that boots or resets the EKF. A fix's formal σ only
 counts the ranges' noise; their unknown offsets and scale (the EKF's hidden states, not yet
 learned at boot) move it by metres (Plaza: 4.5 m, from ranges 7 % long)."""
+ANCHOR_AGE = 5.0
+"""s: how old the LSQ's last fix may be to re-centre a filter the ranges found off
+(:meth:`Fusion._forget`): a beacon cycle or two (Plaza: a fix every ~4 s)."""
 UNDER_WAY_TIME = 20.0
 """s: how long after it starts moving a vehicle counts as cruising, its speed changing only
 gently (the EKF's ``ALONG_TRACK``); while still and until then its speed may change as fast
@@ -328,6 +331,8 @@ class Fusion:
         """Each position sensor's refused fixes, for a filter gone astray (:meth:`_watch_fix`)."""
         self._last_fix: tuple[float, float, float] | None = None
         """(x, y, 1-σ) of the latest position fix, where a realignment far out restarts."""
+        self._lsq_fix: Fix | None = None
+        """The LSQ's latest fix: where a filter the ranges found off is re-centred."""
         self.range_alignment = RangeAlignment({b.name: b for b in config.beacons})
         """The heading sensor's offset told by the ranges, asked only while in doubt
         (:meth:`_align_from_ranges`)."""
@@ -663,6 +668,7 @@ class Fusion:
             for fix in fixes:
                 alignment.add_fix(fix.t, fix.x, fix.y)
                 self._last_fix = (fix.x, fix.y, max(fix.sigma, fix.rms, BOOT_SIGMA))
+                self._lsq_fix = fix
             return
         for r in kept:
             if isinstance(r.obs, Position):
@@ -955,7 +961,7 @@ class Fusion:
                 if lockout is None and not verdict.accepted and not self.safety.disagreeing:
                     lockout = adrift = self.beacon_watch.adrift(t)
                 if lockout is not None:
-                    self._forget(ekf, abs(verdict.innovation))
+                    self._forget(ekf, abs(verdict.innovation), adrift=adrift is not None)
                     self._decide(lockout)
                     self._doubt_from_ranges(t)
                 if adrift is not None and self.heading_watch.course_defined(t):
@@ -1036,19 +1042,40 @@ class Fusion:
         return self._doubt_heading(t)
 
     def _forget(self, ekf: EKF, error: float, but: str | None = None,
-                fit: Fit | None = None) -> None:
+                fit: Fit | None = None, adrift: bool = False) -> None:
         """What the ranges taught the filter, doubted (:mod:`mavhelm.nav.beacon_watch`): a
         beacon off its survey, or a bad range accepted at the boot, that locked out good
         ones. Every beacon's offset but ``but``'s is re-opened to its prior and the
         position widened by ``error`` (m), so that the ranges still trusted set them again.
         A ``fit`` of the track without ``but`` (:mod:`mavhelm.nav.survey_check`) says where
         the other beacons put the vehicle: the position is widened by its distance from
-        there, then told it."""
-        if fit is not None:
-            error = max(error, math.hypot(fit.x - ekf.x.item(I_X), fit.y - ekf.x.item(I_Y)))
-        ekf.reopen_offsets([name for name in ekf.beacons if name != but], error)
-        if fit is not None:
-            ekf.update(Position(fit.t, fit.x, fit.y, fit.sigma))
+        there, then told it. Where the ranges of several beacons say the filter is
+        ``adrift``, the range scale they share is forgotten too, and the LSQ's last fix
+        says where they put the vehicle (:meth:`_lsq_anchor`); one beacon's ranges refused
+        (most likely that beacon off its survey) leave both: its ranges are in that fix."""
+        anchor = (Position(fit.t, fit.x, fit.y, fit.sigma) if fit is not None
+                  else self._lsq_anchor(ekf) if adrift else None)
+        if anchor is not None:
+            error = max(error, math.hypot(anchor.x - ekf.x.item(I_X),
+                                          anchor.y - ekf.x.item(I_Y)))
+        ekf.reopen_offsets([name for name in ekf.beacons if name != but], error,
+                           scale=adrift)
+        if anchor is not None:
+            ekf.update(anchor)
+
+    def _lsq_anchor(self, ekf: EKF) -> Position | None:
+        """Where the LSQ's last fix, at most ``ANCHOR_AGE`` s old, puts the vehicle, with the
+        σ a boot from it gets, widened by the filter's speed over its age: every beacon's
+        ranges solved together, outliers dropped, against the filter's sequential updates,
+        which from a wide prior take the first ranges in a straight line (Plaza1, a range
+        16 m short at the boot: the filter widened 10 m off settled 28 m off, its range
+        scale −0.26, until the LSQ's disagreement re-initialised it 25 s later)."""
+        fix = self._lsq_fix
+        if fix is None or not 0.0 <= ekf.t - fix.t <= ANCHOR_AGE:
+            return None
+        speed = math.hypot(ekf.x.item(I_VX), ekf.x.item(I_VY))
+        sigma = math.hypot(max(fix.sigma, fix.rms, BOOT_SIGMA), speed * (ekf.t - fix.t))
+        return Position(ekf.t, fix.x, fix.y, sigma)
 
     def _note_coupling(self, kept: list[Reading]) -> None:
         """A body velocity with a speed ties the heading to the motion for good."""
