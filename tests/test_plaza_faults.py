@@ -431,3 +431,26 @@ def test_a_heading_turned_from_the_start_with_half_the_ranges(plaza, seed) -> No
     nav = result.accuracy().rms
     print(f"\nhalf the ranges, heading_offset seed {seed}: NAV {nav:.2f} m RMS")
     assert nav <= 0.8, result.report()
+
+
+def test_without_a_heading_sensor_the_ranges_give_the_heading(plaza, tmp_path) -> None:
+    """The mission without the heading sensor (odometry and ranges, the heading the yaw
+    rate's integral from a start nobody knows): the filter's own heading stands in for the
+    readings the ranges' window fits, and the turn found is the filter's to make. Before,
+    the heading was left to the EKF's linearisation from its start (σ 180°): 0.79 m RMS,
+    and with one draw of range outliers (seed 2) twelve "filter is off" decisions and a
+    re-initialisation in the first three minutes, 3.59 m. Now 0.60 and 0.57 m."""
+    alog, mission = plaza
+    text = "".join(line for line in mission.read_text().splitlines(keepends=True)
+                   if not re.match(r"\s*(SENSOR_ORIENTATION|Heading)\s*=", line))
+    blind = tmp_path / "plaza1_no_heading.moos"
+    blind.write_text(text)
+    done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(blind),
+                           str(alog), "--fault", "range_outliers", "--seed", "2",
+                           "--no-nav-log"], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    clean, faulty = done.stdout.split("== fault range_outliers ==")
+    assert "heading taken from the ranges: with no heading sensor" in clean, clean
+    assert "heading bias is unobservable" not in clean  # no sensor, no bias to speak of
+    assert _rms(clean, "NAV") <= 0.7, clean
+    assert _rms(faulty, "NAV") <= FLOOR, faulty

@@ -1290,9 +1290,16 @@ class EKF:
             raise ValueError("realign_heading needs the heading-bias state")
         turn = wrap_angle(self.kf.x.item(self.i_bias) - bias)
         self.reset_yaw_bias(bias, sigma_yaw)
+        self.turn_heading(turn, sigma_yaw, velocity, sigma_velocity)
+        return turn
+
+    def turn_heading(self, turn: float, sigma_yaw: float, velocity: tuple[float, float],
+                     sigma_velocity: float) -> None:
+        """The heading turned by ``turn`` (rad) and the velocity set to ``velocity``, both
+        uncorrelated with the rest at 1-σ ``sigma_yaw`` and ``sigma_velocity``: the heading
+        the motion found, where no sensor reads it (no bias to set)."""
         self._reset_states((I_H,), (wrap_angle(self.kf.x.item(I_H) + turn),), sigma_yaw**2)
         self._reset_states((I_VX, I_VY), velocity, sigma_velocity**2)
-        return turn
 
     def with_yaw_bias(self) -> EKF:
         """This filter with a heading-bias state added (at zero, its prior 1-σ, uncorrelated),

@@ -237,6 +237,12 @@ class FusionConfig:
     until one of them gives a speed (a gyro gives only the yaw rate), the velocity follows
     the heading once under way, as for a mission without them (:mod:`mavhelm.nav.navigator`,
     ``_velocity_follows_heading``)."""
+    heading_sensed: bool = True
+    """An orientation sensor (or ``FIXEDHEADING``) gives the heading. Without one (wheel
+    odometry and ranges, say) the heading is the yaw rate's integral from a start nobody
+    knows, and the ranges' window (:mod:`mavhelm.nav.range_alignment`) fits the track the
+    filter's own heading dead-reckons: the turn it finds is the filter's to make
+    (:meth:`Fusion._align_from_ranges`)."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -649,6 +655,7 @@ class Fusion:
         held = ekf.x.item(I_H) if ekf is not None else None
         # without beacons the ranges are never asked (``_align_from_ranges``): not fed
         ranges = self.range_alignment if self.range_alignment.beacons else None
+        stand_in = held if ranges is not None and not self.config.heading_sensed else None
         for r in kept:
             obs = r.obs
             if isinstance(obs, Yaw):
@@ -658,6 +665,8 @@ class Fusion:
             elif isinstance(obs, BodyVelocity) and obs.forward is not None:
                 alignment.add_body_velocity(obs.t, obs.forward, obs.starboard)
                 if ranges is not None:
+                    if stand_in is not None:  # no sensor: the heading the filter holds
+                        ranges.add_heading(obs.t, stand_in)
                     ranges.add_body_velocity(obs.t, obs.forward, obs.starboard)
             elif isinstance(obs, Range) and ranges is not None and ekf is not None:
                 height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + obs.lever[2]
@@ -779,7 +788,8 @@ class Fusion:
         if (found is None or last is None or found.t - last.t > 2 * RANGE_CHECK_EVERY
                 or abs(math.remainder(found.bias - last.bias, 2 * math.pi)) > MAX_SPREAD):
             return  # two answers in a row must agree: a stuck sensor's track bends them
-        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0
+        bias = (ekf.x.item(ekf.i_bias) if ekf.i_bias is not None and self.config.heading_sensed
+                else 0.0)
         if abs(math.remainder(found.bias - bias, 2 * math.pi)) < RANGE_MIN_TURN:
             self._range_doubt, self._range_heading = (-math.inf, -math.inf), None
             return  # the filter holds the heading the ranges say: the doubt is over
@@ -794,28 +804,36 @@ class Fusion:
         vehicle."""
         ekf = self.ekf
         assert ekf is not None
-        if ekf.i_bias is None:
+        sensed = self.config.heading_sensed
+        if ekf.i_bias is None and sensed:
             ekf = self._add_yaw_bias(t)
         held = ekf.x.item(I_H)
         sigma = max(found.sigma, 1.0)
         if restarted:  # as _align: so far out, every hidden state was misled too
-            ekf.reinitialise(found.x, found.y, sigma, yaw=self._last_yaw)
+            ekf.reinitialise(found.x, found.y, sigma, yaw=self._last_yaw if sensed else held)
             ekf.warnings.pop()  # the decision below says it
             self.noise = NoiseMatch()
             self.beacon_watch = self._new_beacon_watch()
             self.survey_check.clear()
-        ekf.realign_heading(found.bias, ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
+        if sensed:
+            ekf.realign_heading(found.bias, ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
+        else:  # the filter's own heading was off by the turn found
+            ekf.turn_heading(math.remainder(held - found.bias - ekf.x.item(I_H), 2 * math.pi),
+                             ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
         turn = math.remainder(ekf.x.item(I_H) - held, 2 * math.pi)
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
         self.alignment.clear()
         self.range_alignment.clear()
         self._range_doubt, self._range_heading = (t + RANGE_WINDOW, t), None  # confirm it
+        reads = ("the orientation sensor reads" if sensed
+                 else "with no heading sensor, the heading the filter held was")
         self._decide(Decision(t, HEADING, (
-            f"heading taken from the ranges: the orientation sensor reads "
+            f"heading taken from the ranges: {reads} "
             f"{math.degrees(found.bias):+.0f}° off the heading the last "
             f"{RANGE_WINDOW:.0f} s of ranges fit (χ² per dof {found.chi2:.1f}, "
-            f"{found.chi2_other:.1f} with any other turn), the filter's bias "
-            f"{math.degrees(bias):+.0f}°; heading turned by {math.degrees(turn):+.0f}°"
+            f"{found.chi2_other:.1f} with any other turn)"
+            + (f", the filter's bias {math.degrees(bias):+.0f}°" if sensed else "")
+            + f"; heading turned by {math.degrees(turn):+.0f}°"
             + (f", the filter restarted at ({found.x:.1f}, {found.y:.1f}) ± {sigma:.1f} m"
                if restarted else ""))))
 
@@ -982,7 +1000,7 @@ class Fusion:
         ekf = self.ekf  # a doubt may have given it a bias state
         assert ekf is not None
         decision = self.heading_watch.motion(t, math.hypot(ekf.x.item(I_VX), ekf.x.item(I_VY)))
-        if decision is not None:
+        if decision is not None and self.config.heading_sensed:  # else no bias to observe
             self._decide(decision)
         if (ekf.i_bias is None and self._heading_coupled and not self.heading_watch.rejecting
                 and self.heading_watch.course_defined(t)):

@@ -200,7 +200,9 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     positions = any(s.type in POSITION_TYPES for s in sensors)
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
                          speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions,
-                         follow_unless_speed=unless_speed)
+                         follow_unless_speed=unless_speed,
+                         heading_sensed=any(s.type == "ORIENTATION" for s in sensors)
+                         or settings[FIXEDHEADING.attribute] is not None)
     return sensors, Fusion(config)
 
 
