@@ -346,6 +346,9 @@ class Fusion:
         """(until when the ranges are asked for the heading, when next)."""
         self._range_heading: RangeHeading | None = None
         """The ranges' last answer, which the next must confirm."""
+        self._mirrored_said: bool | None = None
+        """Without a heading sensor, the ranges' last answer to whether the yaw rate reads
+        the wrong way round (:meth:`_rate_sense_from_ranges`)."""
         self._questioned = (-math.inf, 0.0)
         """(when last asked, s under way since the ranges were first asked) for
         :meth:`_heading_in_question`."""
@@ -780,6 +783,8 @@ class Fusion:
         self._range_doubt = (until, t + RANGE_CHECK_EVERY)
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
+        if not self.config.heading_sensed and self._rate_sense_from_ranges(t, near):
+            return
         found = self.range_alignment.estimate(near)
         if found is not None and self.kick_offset:  # the sensor as it reads, its jump with it
             found = dataclasses.replace(
@@ -796,6 +801,39 @@ class Fusion:
         self._heading_from_ranges(t, found, bias,
                                   abs(math.remainder(found.bias - bias, 2 * math.pi))
                                   > ALIGN_RESET)
+
+    def _rate_sense_from_ranges(self, t: float, near: tuple[float, float]) -> bool:
+        """Without a heading sensor nothing turns against a yaw rate of the wrong sense, but
+        the track the filter's heading (the rate's integral) dead-reckons bends the wrong way
+        through every turn: where it fits the ranges only mirrored
+        (:meth:`RangeAlignment.sense`), twice in a row, every rate heard is taken the other
+        way round from now on, the window and the filter's heading mirrored with it and what
+        the rate taught forgotten; the ranges' next answers turn the heading. Whether it did."""
+        said, self._mirrored_said = self._mirrored_said, self.range_alignment.sense(near)
+        if not (said and self._mirrored_said):
+            return False
+        self._mirrored_said = None
+        ekf = self.ekf
+        assert ekf is not None
+        sense = self.rate_sense
+        for name in sense.heard:
+            if name in sense.reversed:
+                sense.forgive(name)
+            else:
+                sense.reversed.add(name)
+        self.range_alignment.mirror()
+        self.alignment.clear()
+        ekf.forget_turn(-ekf.x.item(I_H))
+        self._range_heading = None
+        self._doubt_from_ranges(t)
+        self._decide(Decision(t, HEADING, (
+            "with no heading sensor, the track the yaw rate turns fits the ranges only "
+            "mirrored: the rate " + ", ".join(sense.heard) + " is of the wrong sense, taken "
+            "negated from now on (check its sign: pNav's yaw rate is anticlockwise-positive, "
+            "a NED gyro's clockwise)" if sense.reversed else
+            "with no heading sensor, the track the yaw rate turns fits the ranges as it "
+            "reads after all: the rate taken as it reads again")))
+        return True
 
     def _heading_from_ranges(self, t: float, found: RangeHeading, bias: float,
                              restarted: bool) -> None:

@@ -141,6 +141,11 @@ class RateSense:
                 findings.append(finding)
         return findings
 
+    @property
+    def heard(self) -> list[str]:
+        """The rate sensors heard so far, by name."""
+        return sorted(self._rates)
+
     def forgive(self, sensor: str) -> None:
         """A rate found reversed taken as it reads again, its votes and every heading's last
         reading forgotten: the heading it was judged by was the one of the wrong sense, and
