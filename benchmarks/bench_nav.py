@@ -123,6 +123,14 @@ the bit (Plaza1 tracks and covariances compared).
   ``bench_nav`` after the day's nav changes (a yaw-rate row and a stuck-heading check, a
   few µs a tick) 1.1 ms, the work 0.79 ms. On this VM the target is met when the host is
   quiet and not when it is busy.
+- The host against the issue's day (2026-12-04, load 0.6-1.7): the code the issue measured
+  (``3f4e5e0``, its own benchmark) ran its EKF loop at 81-84 µs (the issue: 47 µs), the
+  Plaza1 replay at 4.6 s for a one-hour log (2.7 s) and its three-task tick at a p99 of
+  1.72 ms (0.69 ms): this machine ran 1.7-2.5 times slower than on the day the targets
+  were set. The code of that evening, here: EKF 49 µs, replay 5.7 s, the 20-task tick with
+  logging p99 1.25 ms (the work 0.94 ms): the EKF and the tick faster than the issue's code
+  on the same host, the replay 25 % slower (the checks added since: the survey check, the
+  range alignment, the fix and kick watches, the LSQ's five states).
 - Tried and dropped: the EKF's prediction in plain floats on lists (no numpy) for the
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
