@@ -445,12 +445,13 @@ def test_without_a_heading_sensor_the_ranges_give_the_heading(plaza, tmp_path) -
     readings the ranges' window fits, and the turn found is the filter's to make. Before,
     the heading was left to the EKF's linearisation from its start (σ 180°): 0.79 m RMS,
     and with one draw of range outliers (seed 2) twelve "filter is off" decisions and a
-    re-initialisation in the first three minutes, 3.59 m. Now 0.60 and 0.57 m.
+    re-initialisation in the first three minutes, 3.59 m. Now 0.58 and 0.57 m.
 
     Its yaw rate of the wrong sense has nothing to turn against: the track the filter's
     heading dead-reckons fits the ranges only mirrored, and the rate is then taken negated
-    (found 127 s in, after the robot's first turns; 5.85 m RMS before, 3.17 m, 51 m off on
-    the way)."""
+    (found 121 s in, after the robot's first turns; 5.85 m RMS before). The mission's
+    ``EKF_YAW_BIAS = true`` gave a bias state nothing reads, on which every doubt was raised
+    instead of on the heading: 3.17 m with it, 1.49 m without."""
     alog, mission = plaza
     text = "".join(line for line in mission.read_text().splitlines(keepends=True)
                    if not re.match(r"\s*(SENSOR_ORIENTATION|Heading)\s*=", line))
@@ -467,7 +468,8 @@ def test_without_a_heading_sensor_the_ranges_give_the_heading(plaza, tmp_path) -
     assert _rms(clean, "NAV") <= 0.7, clean
     assert _rms(faulty, "NAV") <= FLOOR, faulty
     assert "the rate ODOM_YAW_VEL (sensor odometry) is of the wrong sense" in reversed_
-    assert _rms(reversed_, "NAV") <= 3.5, reversed_
+    assert _rms(reversed_, "NAV") <= 2.0, reversed_
+    assert "heading bias is estimated" not in done.stdout  # no sensor: no bias state
 
 
 def test_a_beacon_off_its_survey_keeps_the_blame_with_half_the_ranges(plaza) -> None:

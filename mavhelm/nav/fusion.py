@@ -1041,7 +1041,7 @@ class Fusion:
         if decision is not None and self.config.heading_sensed:  # else no bias to observe
             self._decide(decision)
         if (ekf.i_bias is None and self._heading_coupled and not self.heading_watch.rejecting
-                and self.heading_watch.course_defined(t)):
+                and self.heading_watch.course_defined(t) and self.config.heading_sensed):
             ekf = self._add_yaw_bias(t)
             ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + ADDED_WANDER_TIME)
         if any(isinstance(r.obs, Range) for r in kept):
@@ -1215,8 +1215,8 @@ class Fusion:
         decide it where the motion makes it observable."""
         ekf = self.ekf
         assert ekf is not None
-        if ekf.i_bias is None and self._heading_coupled:
-            ekf = self._add_yaw_bias(t)
+        if ekf.i_bias is None and self._heading_coupled and self.config.heading_sensed:
+            ekf = self._add_yaw_bias(t)  # without a heading sensor nothing reads a bias
         ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + BIAS_WANDER_TIME)
         self._doubt_from_ranges(t)
         if ekf.i_bias is None:

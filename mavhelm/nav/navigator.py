@@ -194,15 +194,18 @@ def fusion_from_settings(settings: dict, block: Block) -> tuple[list[SensorSpec]
     has_depth = _check_filters(settings, sensors, block)
     integrated = bool(integrated_sources(sensors))
     follows, unless_speed = _velocity_follows_heading(settings, sensors)
+    heading_sensed = (any(s.type == "ORIENTATION" for s in sensors)
+                      or settings[FIXEDHEADING.attribute] is not None)
+    # a heading bias is an orientation sensor's: without one nothing reads it, and a doubt
+    # raised on it would leave the heading itself as sure as before
     ekf = config_from(EKFConfig, settings, estimate_z=has_depth,
                       velocity_follows_heading=follows,
-                      estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute])
+                      estimate_yaw_scale=integrated and settings[EKF_YAW_SCALE.attribute],
+                      estimate_yaw_bias=heading_sensed and settings[EKF_YAW_BIAS.attribute])
     positions = any(s.type in POSITION_TYPES for s in sensors)
     config = config_from(FusionConfig, settings, ekf=ekf, start=_start(settings),
                          speed_scale=settings[EKF_SPEED_SCALE.attribute] and positions,
-                         follow_unless_speed=unless_speed,
-                         heading_sensed=any(s.type == "ORIENTATION" for s in sensors)
-                         or settings[FIXEDHEADING.attribute] is not None)
+                         follow_unless_speed=unless_speed, heading_sensed=heading_sensed)
     return sensors, Fusion(config)
 
 
