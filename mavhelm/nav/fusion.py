@@ -793,8 +793,7 @@ class Fusion:
         if (found is None or last is None or found.t - last.t > 2 * RANGE_CHECK_EVERY
                 or abs(math.remainder(found.bias - last.bias, 2 * math.pi)) > MAX_SPREAD):
             return  # two answers in a row must agree: a stuck sensor's track bends them
-        bias = (ekf.x.item(ekf.i_bias) if ekf.i_bias is not None and self.config.heading_sensed
-                else 0.0)
+        bias = ekf.x.item(ekf.i_bias) if ekf.i_bias is not None else 0.0  # none unsensed
         if abs(math.remainder(found.bias - bias, 2 * math.pi)) < RANGE_MIN_TURN:
             self._range_doubt, self._range_heading = (-math.inf, -math.inf), None
             return  # the filter holds the heading the ranges say: the doubt is over
