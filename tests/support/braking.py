@@ -44,6 +44,7 @@ TARGET_PERIOD_S = 0.1     # velocity target refresh while driving
 DRIVE_S = 10.0            # driving at the case's speed before the stop
 RECORD_S = 8.0            # recorded after the stop starts
 SPEED_WINDOW_S = 0.3      # speed: a line fitted to SIMSTATE positions over this window
+STAY_S = 2.0              # stopped: |speed| < 0.1 m/s held this long
 WALL_LIMIT_S = 120.0
 CASES: tuple[tuple[str, float], ...] = (
     ("timeout", 1.6), ("hold", 1.6), ("timeout", 4.0), ("hold", 4.0))
@@ -58,6 +59,7 @@ class Stop:
     t0: float = math.nan        # autopilot s when the stop started
     track: list[tuple[float, float, float, float]] = field(default_factory=list)
     servos: list[tuple[float, int]] = field(default_factory=list)   # (t, servo3)
+    texts: list[tuple[float, str]] = field(default_factory=list)    # the autopilot's, (t, text)
 
 
 class BrakeDriver:
@@ -182,6 +184,7 @@ def run_braking(side: Side, cases: tuple[tuple[str, float], ...] = CASES) -> lis
         d.until(stop.t0 + RECORD_S)
         stop.track = [r for r in d.track if start <= r[0]]
         stop.servos = [r for r in d.servos if start <= r[0]]
+        stop.texts = [r for r in d.texts if start <= r[0]]
         stops.append(stop)
     return stops
 
@@ -232,12 +235,18 @@ def _first(series: list[tuple[float, float]], t0: float, pred) -> float:
 
 
 def _settled(series: list[tuple[float, float]], t0: float, band: float) -> float:
-    """Seconds from t0 until |value| stays below band to the end of the record, or nan."""
+    """Seconds from t0 to the last sample at or above band before |value| stays below it for
+    STAY_S, or nan. Held for STAY_S, not to the record's end: the braking is over then, and a
+    later move is the loiter's own business (the real SITL at ×10 on a loaded machine now and
+    then moves again 5-8 s after the stop, see Stop.texts)."""
     rows = [r for r in series if r[0] >= t0]
-    if not rows or abs(rows[-1][1]) >= band:
-        return math.nan
-    out = [t for t, x in rows if abs(x) >= band]
-    return (out[-1] - t0) if out else 0.0
+    last_out = t0
+    for t, x in rows:
+        if abs(x) >= band:
+            last_out = t
+        elif t - last_out >= STAY_S:
+            return last_out - t0
+    return math.nan
 
 
 FIGURES = ("speed at stop m/s", "speed 1 s after m/s", "speed 3 s after m/s", "t to 0.3 m/s s",
