@@ -671,8 +671,10 @@ class Fusion:
                     if stand_in is not None:  # no sensor: the heading the filter holds
                         ranges.add_heading(obs.t, stand_in)
                     ranges.add_body_velocity(obs.t, obs.forward, obs.starboard)
-            elif isinstance(obs, Range) and ranges is not None and ekf is not None:
-                height = (ekf.x.item(ekf.i_z) if ekf.i_z is not None else 0.0) + obs.lever[2]
+            elif isinstance(obs, Range) and ranges is not None:
+                # before the boot too: a filter booted under way asks for the heading at once
+                z = ekf.x.item(ekf.i_z) if ekf is not None and ekf.i_z is not None else 0.0
+                height = z + obs.lever[2]
                 weighed = self._weighted(obs, r.sensor.name)  # its σ as the filter weighs it
                 sigma = weighed.sigma if isinstance(weighed, Range) else obs.sigma
                 ranges.add_range(obs.t, obs.beacon, obs.z, sigma, height)
