@@ -436,7 +436,9 @@ def test_ranges_refused_in_a_row_say_the_filter_is_off_while_the_lsq_disagrees(
     and its dead reckoning ran off. The ranges of three beacons were refused in a row from
     19 s, but the filter was not found adrift while the LSQ disagreed, its re-initialisation
     left to wait for a count of fixes that never came before the sense was told at 33.4 s:
-    25 m off, 2.17 m RMS. Found adrift at 24.8 s and re-centred on the LSQ: 1.23 m."""
+    25 m off, 2.17 m RMS. While the sense is open, found adrift at 24.8 s and re-centred on
+    the LSQ: 1.23 m. (Otherwise the LSQ's re-initialisation still comes first: spec 2.2.9's
+    tests in test_nav_ekf, test_nav_safety and test_nav_sim.)"""
     from mavhelm.nav.replay import replay
 
     alog, mission = plaza

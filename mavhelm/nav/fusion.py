@@ -1014,10 +1014,12 @@ class Fusion:
                 lockout = self.beacon_watch.refused(t, used.beacon, verdict.accepted,
                                                     verdict.innovation, used.sigma)
                 adrift = None
-                # even while the LSQ disagrees: its re-initialisation (spec 2.2.9) waits for
-                # a count of fixes, a few seconds apart; a filter booted under way with its
-                # heading in question ran 25 m off in those (Plaza1 from 800 s, 2.17 m RMS)
-                if lockout is None and not verdict.accepted:
+                # while the LSQ disagrees its re-initialisation (spec 2.2.9) comes first,
+                # unless it is open which way the heading turns: the filter takes no heading
+                # then, and ran 25 m off while the count of fixes the re-initialisation waits
+                # for came (Plaza1 from 800 s, booted under way, 2.17 m RMS)
+                if lockout is None and not verdict.accepted and (
+                        not self.safety.disagreeing or self._sense_test is not None):
                     lockout = adrift = self.beacon_watch.adrift(t)
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation), adrift=adrift is not None)
