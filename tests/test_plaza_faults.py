@@ -531,6 +531,7 @@ def test_without_a_heading_sensor_the_ranges_give_the_heading(plaza, tmp_path) -
     clean, faulty, reversed_ = re.split(r"^== fault \w+ ==$", done.stdout, flags=re.M)
     assert "heading taken from the ranges: with no heading sensor" in clean, clean
     assert "heading bias is unobservable" not in clean  # no sensor, no bias to speak of
+    assert re.search(r"^learned: speed scale", clean, flags=re.M), clean  # no bias to print
     assert _rms(clean, "NAV") <= 0.7, clean
     assert _rms(faulty, "NAV") <= FLOOR, faulty
     assert "the rate ODOM_YAW_VEL (sensor odometry) is of the wrong sense" in reversed_

@@ -187,8 +187,10 @@ class ReplayResult:
             lines += [f"  {d.t - self.start:8.1f} s  {d}" for d in shown]
             if len(fusion.decisions) > len(shown):
                 lines.append(f"  … {len(fusion.decisions) - len(shown)} more in the .olog")
-            if self.final is not None:
-                lines.append("learned: " + ", ".join(_learned(self.final)))
+            if self.final is not None and fusion.ekf is not None:
+                learned = _learned(self.final, fusion.ekf)
+                lines.append("learned: " + (", ".join(learned) if learned
+                                            else "nothing (the filter has no hidden states)"))
         if self.failure:
             lines.append(f"NAVIGATION FAILURE: {self.failure}")
         return lines
@@ -198,16 +200,19 @@ def _share(part: int, whole: int) -> str:
     return f"{100 * part / whole:.0f} %" if whole else "-"
 
 
-def _learned(final: Estimate) -> list[str]:
-    """The hidden states the filter ended with, as the report prints them."""
-    learned = [f"heading bias {math.degrees(final.yaw_bias):+.2f} deg"]
-    if final.yaw_drift:
+def _learned(final: Estimate, ekf: EKF) -> list[str]:
+    """The hidden states the filter ended with, those it has, as the report prints them."""
+    learned = []
+    if ekf.i_bias is not None:
+        learned.append(f"heading bias {math.degrees(final.yaw_bias):+.2f} deg")
+    if ekf.i_drift is not None:
         learned.append(f"drifting {60 * math.degrees(final.yaw_drift):+.2f} deg/min")
-    if final.yaw_scale:
+    if ekf.i_yaw_scale is not None:
         learned.append(f"yaw rate scale {final.yaw_scale:+.4f}")
-    if final.speed_scale:
+    if ekf.i_speed is not None:
         learned.append(f"speed scale {final.speed_scale:+.4f}")
-    learned.append(f"range scale {final.range_scale:+.4f}")
+    if ekf.i_scale is not None:
+        learned.append(f"range scale {final.range_scale:+.4f}")
     return learned + [f"offset {k} {v:+.2f} m" for k, v in final.offsets.items()]
 
 
