@@ -19,13 +19,13 @@ SCALE = 1.067
 
 
 def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: float,
-           seed: int = 1, height: float = 0.0, told: float | None = None
-           ) -> list[tuple[float, str]]:
+           seed: int = 1, height: float = 0.0, told: float | None = None,
+           warned: list[str] | None = None) -> list[tuple[float, str]]:
     """The vehicle goes round an oval at 1 m/s; the track made good it is told (its velocity)
     is turned 3° and 2 % long, the position it starts from 2 m off. Ranges at 2 Hz, to each
     beacon in turn, from where each truly is (``moved``), σ 0.3 m, heard ``height`` m up
     (the check is ``told`` that height, the same unless given). What ``review`` named,
-    when."""
+    when; the misfit warnings into ``warned``."""
     rng = np.random.default_rng(seed)
     turn, stretch = math.radians(3.0), 1.02
     named = []
@@ -47,13 +47,18 @@ def _drive(check: SurveyCheck, moved: dict[str, tuple[float, float]], seconds: f
             found = check.review(t)
             if found is not None:
                 named.append((t, found))
+            warning = check.misfit_warning(t)
+            if warning is not None and warned is not None:
+                warned.append(warning)
     return named
 
 
 def test_every_beacon_where_surveyed_none_is_singled_out() -> None:
     for seed in (1, 2, 3):
         check = SurveyCheck(BEACONS)
-        assert _drive(check, {}, 900.0, seed) == []
+        warned: list[str] = []
+        assert _drive(check, {}, 900.0, seed, warned=warned) == []
+        assert warned == []  # nor is the operator told of a misfit
         assert set(check.fits) == {None, "A", "B", "C", "D"}  # it did judge
         assert check.fits[None].chi2 < 0.2  # σ declared 1 m, 0.3 m heard
 
@@ -63,9 +68,13 @@ def test_every_beacon_where_surveyed_none_is_singled_out() -> None:
 def test_a_beacon_5_m_off_its_survey_is_singled_out(name, bearing) -> None:
     b = BEACONS[name]
     check = SurveyCheck(BEACONS)
+    warned: list[str] = []
     named = _drive(check, {name: (b.x + 5 * math.cos(bearing), b.y + 5 * math.sin(bearing))},
-                   400.0)
+                   400.0, warned=warned)
     assert named and {n for _, n in named} == {name}
+    # told as a misfit no one beacon explains at most once, before it was singled out
+    assert len(warned) <= 1 and all(f"beacons {name}" in w or f", {name}" in w
+                                    for w in warned), warned
     assert named[0][0] <= 300.0
     # the fit without it puts the vehicle where it is, not where the start said
     fit = check.fits[name]

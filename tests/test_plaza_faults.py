@@ -455,6 +455,24 @@ def test_ranges_refused_in_a_row_say_the_filter_is_off_while_the_lsq_disagrees(
     assert result.accuracy().rms <= 1.5, report
 
 
+def test_a_misfit_no_one_beacon_explains_is_told_to_the_operator(plaza, tmp_path) -> None:
+    """Plaza1 from 800 s in (the defaults' mission), beacon 0 5 m off its survey (seed 2):
+    the ranges misfit the track in review after review, but leaving out beacon 0 or beacon
+    5 fits as well, so none is singled out (2.34 m RMS, NEES 45) and the operator was told
+    nothing. Now a NAV_WARNING says so, naming both; the recording as it is, none."""
+    from mavhelm.nav.replay import replay
+
+    alog, mission = plaza
+    block = load_mission(_as_defaults(mission)).process("pNav")
+    assert block is not None
+    started = read_alog(_from(alog, 800, tmp_path))
+    moved = replay(block, with_fault("beacon_moved", started, layout_of(block), 2))
+    told = [w for w in moved.warnings if "the ranges misfit the track" in w]
+    assert told and "beacons 0, 5 fits as well" in told[0], moved.warnings
+    clean = replay(block, started)
+    assert not [w for w in clean.warnings if "misfit" in w], clean.warnings
+
+
 @pytest.mark.parametrize(("seed", "measured"), [(1, 0.40), (2, 0.75)])
 def test_a_heading_drifting_180_degrees_within_two_minutes(plaza, monkeypatch, seed,
                                                            measured) -> None:
@@ -555,5 +573,5 @@ def test_a_beacon_off_its_survey_keeps_the_blame_with_half_the_ranges(plaza) -> 
     nav = result.accuracy().rms
     print(f"\nhalf the ranges, beacon_moved seed 1: NAV {nav:.2f} m RMS")
     assert nav <= FLOOR, result.report()
-    blamed = [w for w in result.warnings if "off its survey" in w]
+    blamed = [w for w in result.warnings if "it is off its survey" in w]
     assert blamed and all("beacon 0's" in w for w in blamed), blamed

@@ -1051,6 +1051,9 @@ class Fusion:
             ekf.doubt_heading(DOUBT_SIGMA, WANDER_NOISE, t + ADDED_WANDER_TIME)
         if any(isinstance(r.obs, Range) for r in kept):
             singled_out = self.survey_check.review(t)
+            misfit = self.survey_check.misfit_warning(t)
+            if misfit is not None:
+                self.warnings.append(misfit)
             for decision in self.beacon_watch.review(t, ekf, singled_out):
                 self._decide(decision)
             for name in self.beacon_watch.newly_off:

@@ -85,6 +85,15 @@ Plaza1 with half its ranges and beacon 0 5 m off (seed 1): for 750 s from 1101 s
 sat on beacon 5, whose ranges misfit a little on the clean recording too (the fit without it
 the best of every review there), while the fit without beacon 0 was still 1.4-2.7 times
 better than with it (1.68 m RMS); without beacon 0 on the clean recording, 0.8-1.0 times."""
+MISFIT_CONFIRM: Final = 4
+"""Reviews, of the last ``VOTES``, that must find the ranges misfitting the track (the fit
+with every beacon ``RATIO_ALL`` times worse than the best without one) with no one beacon to
+blame before the operator is told. Plaza1 replayed from a start under way, one beacon 5 m
+off: most reviews find the misfit, but leaving out beacon 0, 1 or 5 fits as well (three
+beacons left, a free shift, range scale and offset absorb the displaced one); clean, and
+with every other fault, no review finds it."""
+MISFIT_EVERY: Final = 300.0
+"""s: the operator is told again at most this often while the misfit stays unexplained."""
 MIN_BEACONS: Final = 4
 MIN_RANGES: Final = 5
 HUBER: Final = 2.0
@@ -150,6 +159,11 @@ class SurveyCheck:
         self._named = [deque[str | None](maxlen=VOTES) for _ in WINDOWS]
         self.singled_out: str | None = None
         """The beacon last singled out."""
+        self._suspects: tuple[str, ...] | None = None
+        """The last review's beacons whose absence explains a misfit about as well as the
+        best's (within ``RATIO_NEXT``); None where the fit with every beacon was good."""
+        self._misfits = deque[tuple[str, ...] | None](maxlen=VOTES)
+        self._misfit_told = -math.inf
         self._shapes: list[dict[str | None, np.ndarray]] = [{} for _ in WINDOWS]
         """Each window's last fits' turn, scales and offset: where its next fits start (the
         window moves on by ``REVIEW`` s, they little)."""
@@ -166,6 +180,7 @@ class SurveyCheck:
             named.clear()
             shapes.clear()
         self.singled_out = None
+        self._misfits.clear()
         self._t = None
 
     def move(self, t: float, x: float, y: float, x_vel: float, y_vel: float) -> None:
@@ -197,10 +212,26 @@ class SurveyCheck:
             named = None  # the beacon blamed still misfits: no other takes the blame
         votes = self._named[turn]
         votes.append(named)
+        self._misfits.append(self._suspects if named is None else None)
         if named is not None and votes.count(named) >= CONFIRM:
             self.singled_out = named
             return named
         return None
+
+    def misfit_warning(self, t: float) -> str | None:
+        """What to tell the operator where the ranges keep misfitting the track and no one
+        beacon explains it (``MISFIT_CONFIRM`` of the last ``VOTES`` reviews), at most every
+        ``MISFIT_EVERY`` s; None otherwise. Nothing is down-weighted for it."""
+        found = [s for s in self._misfits if s is not None]
+        if (len(found) < MISFIT_CONFIRM or self.singled_out is not None
+                or t - self._misfit_told < MISFIT_EVERY):
+            return None
+        self._misfit_told = t
+        suspects = sorted(set.union(*(set(s) for s in found)))
+        return (f"the ranges misfit the track made good in {len(found)} of the last "
+                f"{len(self._misfits)} reviews, and leaving out any one of beacons "
+                f"{', '.join(suspects)} fits as well: a beacon may be off its surveyed "
+                f"position (not told which); check the survey")
 
     def _single_out(self, since: float, shapes: dict[str | None, np.ndarray]) -> str | None:
         heard = [h for h in self.heard if h.t >= since]
@@ -209,6 +240,7 @@ class SurveyCheck:
             counts[h.beacon] = counts.get(h.beacon, 0) + 1
         names = [name for name, n in counts.items() if n >= MIN_RANGES]
         self.fits = {}
+        self._suspects = None
         if len(names) < MIN_BEACONS:
             return None
         window = [h for h in heard if h.beacon in names]
@@ -236,7 +268,10 @@ class SurveyCheck:
             return None
         ranked = sorted(names, key=lambda name: fits[name].chi2)
         best, second = fits[ranked[0]].chi2, fits[ranked[1]].chi2
-        if fits[None].chi2 > RATIO_ALL * best and second > RATIO_NEXT * best:
+        misfit = fits[None].chi2 > RATIO_ALL * best
+        self._suspects = tuple(name for name in ranked
+                               if fits[name].chi2 <= RATIO_NEXT * best) if misfit else None
+        if misfit and second > RATIO_NEXT * best:
             return ranked[0]
         return None
 
