@@ -174,7 +174,7 @@ def test_sim_brakes_as_the_real_sitl(real_sitl, sim_stops) -> None:
         # The binary at ×10 wall speed now and then moves again late in a stop (CI runs saw
         # the boat above 0.1 m/s at the 8 s record's end, from 4 m/s and from 1.6 m/s, after
         # it had stopped; alone and under two CPU burners it gave the pinned figures 14 times
-        # of 14). "t to stay" asks for STAY_S stopped, not the record's end, since; should a
+        # of 14). "t to stay" now asks for STAY_S stopped, not the record's end; should a
         # run still drift, one fresh measurement, every check below unchanged.
         print("\nthe real SITL's first run drifted from its pinned figures:\n"
               + "\n".join(_check(real, REAL)) + "\nits texts: "

@@ -159,9 +159,6 @@ class SurveyCheck:
         self._named = [deque[str | None](maxlen=VOTES) for _ in WINDOWS]
         self.singled_out: str | None = None
         """The beacon last singled out."""
-        self._suspects: tuple[str, ...] | None = None
-        """The last review's beacons whose absence explains a misfit about as well as the
-        best's (within ``RATIO_NEXT``); None where the fit with every beacon was good."""
         self._misfits = deque[tuple[str, ...] | None](maxlen=VOTES)
         self._misfit_told = -math.inf
         self._shapes: list[dict[str | None, np.ndarray]] = [{} for _ in WINDOWS]
@@ -212,7 +209,7 @@ class SurveyCheck:
             named = None  # the beacon blamed still misfits: no other takes the blame
         votes = self._named[turn]
         votes.append(named)
-        self._misfits.append(self._suspects if named is None else None)
+        self._misfits.append(_suspects(self.fits) if named is None else None)
         if named is not None and votes.count(named) >= CONFIRM:
             self.singled_out = named
             return named
@@ -240,7 +237,6 @@ class SurveyCheck:
             counts[h.beacon] = counts.get(h.beacon, 0) + 1
         names = [name for name, n in counts.items() if n >= MIN_RANGES]
         self.fits = {}
-        self._suspects = None
         if len(names) < MIN_BEACONS:
             return None
         window = [h for h in heard if h.beacon in names]
@@ -266,14 +262,22 @@ class SurveyCheck:
         if not all(math.isfinite(v) for f in fits.values() for v in (f.chi2, f.x, f.y, f.sigma)):
             fits.clear()
             return None
-        ranked = sorted(names, key=lambda name: fits[name].chi2)
-        best, second = fits[ranked[0]].chi2, fits[ranked[1]].chi2
-        misfit = fits[None].chi2 > RATIO_ALL * best
-        self._suspects = tuple(name for name in ranked
-                               if fits[name].chi2 <= RATIO_NEXT * best) if misfit else None
-        if misfit and second > RATIO_NEXT * best:
-            return ranked[0]
+        suspects = _suspects(fits)
+        return suspects[0] if suspects is not None and len(suspects) == 1 else None
+
+
+def _suspects(fits: dict[str | None, Fit]) -> tuple[str, ...] | None:
+    """Where the fit with every beacon is ``RATIO_ALL`` times worse than the best without
+    one, the beacons whose absence fits within ``RATIO_NEXT`` of that best, best first (one
+    alone is singled out); None where the ranges fit, or nothing was fitted."""
+    without = {name: fit.chi2 for name, fit in fits.items() if name is not None}
+    if not without:
         return None
+    best = min(without.values())
+    if not fits[None].chi2 > RATIO_ALL * best:
+        return None
+    return tuple(sorted((name for name, chi2 in without.items() if chi2 <= RATIO_NEXT * best),
+                        key=without.__getitem__))
 
 
 def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
