@@ -205,13 +205,17 @@ def _ranging(m: Message, layout: Layout) -> bool:
                                for p in layout.ranging)
 
 
+MOVED_BY = 5.0
+"""m: how far ``beacon_moved`` puts the beacon from its surveyed position."""
+
+
 def beacon_moved(messages: list[Message], layout: Layout,
                  rng: np.random.Generator) -> list[Message]:
     if not layout.beacons:
         return messages
     beacon = layout.beacons[0]
     angle = rng.uniform(0.0, 2 * math.pi)
-    moved = (beacon.x + 5.0 * math.cos(angle), beacon.y + 5.0 * math.sin(angle))
+    moved = (beacon.x + MOVED_BY * math.cos(angle), beacon.y + MOVED_BY * math.sin(angle))
     tt, tx, ty = _truth(messages)
     if tt.size == 0:
         return messages
