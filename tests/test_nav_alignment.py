@@ -53,6 +53,27 @@ def test_a_bias_the_filter_holds_leaves_no_correction_even_while_it_drifts() -> 
     assert found is not None and abs(math.degrees(found.correction)) < 0.5
 
 
+def test_a_steady_offset_is_taken_whole_while_the_filter_learns_its_bias() -> None:
+    """The sensor 117° out from the start (clockwise), the filter learning its bias from
+    position fixes meanwhile, 47° of it in 30 s: the bias it needs is the sensor's raw
+    offset from the courses, not the runs' corrections (each against the bias held then)
+    added to the bias now, which counted the 47° twice (−150°; the simulator's box patrol,
+    its compass out, turned 35° wrong)."""
+    a = MotionAlignment()
+    h = math.radians(30.0)
+    learned = 0.0
+    for k in range(401):
+        t = 0.1 * k
+        learned = -math.radians(47.0) * min(t, 30.0) / 30.0  # learned as the filter goes
+        a.add_heading(t, -h - math.radians(117.0), learned)
+        if k % 20 == 0:
+            a.add_fix(t, 1.5 * t * math.sin(h), 1.5 * t * math.cos(h))
+    found = a.estimate()
+    assert found is not None and found.told
+    needed = math.degrees(math.remainder(learned + found.correction, 2 * math.pi))
+    assert needed == pytest.approx(-117.0, abs=1.0)
+
+
 def test_a_turn_going_astern_or_crabbing_gives_no_run() -> None:
     def circle(radius: float) -> MotionAlignment:
         """Round a circle at 2 m/s, clockwise, the sensor reading 30° more than the heading."""

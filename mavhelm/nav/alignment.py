@@ -158,6 +158,8 @@ class MotionAlignment:
         """(t, course made good, the sensor's mean raw reading) of each straight run: which
         way round the sensor turns (:meth:`sense`)."""
         self._velocity = (0.0, 0.0)
+        self._bias = 0.0
+        """The bias the filter held for the latest reading."""
         self._estimate: Alignment | None = None
         self._fresh = True
 
@@ -179,6 +181,7 @@ class MotionAlignment:
         headings = self._headings
         if headings and t - headings[-1][0] < HEADING_EVERY:
             return
+        self._bias = bias
         a = yaw - bias
         off = 0.0 if held is None else a - held
         headings.append((t, math.sin(a), math.cos(a), math.sin(off), math.cos(off),
@@ -266,10 +269,34 @@ class MotionAlignment:
         spanned = times[-1] - times[0] >= MIN_SPAN
         told = spread <= MAX_SPREAD and ((spanned and gap <= MAX_GAP)
                                          or abs(correction) >= TURNED_ROUND)
+        steady = self._steady(spanned and gap <= MAX_GAP)
+        if steady is not None and (not told or steady[1] < spread):
+            (correction, spread), told = steady, True
         if told or (spanned and stale_spread <= MAX_SPREAD and abs(stale) >= MAX_SPREAD):
             self._estimate = Alignment(correction, spread, n, self._velocity, heading_error,
                                        stale, stale_spread, told)
         return self._estimate
+
+    def _steady(self, lasted: bool) -> tuple[float, float] | None:
+        """The correction and its spread where the sensor's raw offsets from the courses
+        agree within ``MAX_SPREAD`` (and ``lasted``, or it is ``TURNED_ROUND``): a steady
+        offset, taken against the bias the filter holds now. The runs' corrections, each
+        against the bias held then, tell a bias the filter follows as it drifts; they cannot
+        agree while the filter learns its bias from position fixes, and added to the bias
+        now they count what it learned twice (the simulator's box patrol on GPS, compass,
+        DVL and gyro, its compass 117° out from the start: the bias learned 47° in 25 s,
+        the corrections spread past 15° until then, and the heading was taken 152° out,
+        18.9 m off, 2.15 m RMS). Where both agree, the tighter is taken."""
+        courses = self._courses
+        if len(courses) < SAMPLES:
+            return None
+        offsets = [raw - course for _, course, raw in courses]
+        offset, spread = _circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)),
+                                   len(offsets))
+        correction = math.remainder(offset - self._bias, 2 * math.pi)
+        if spread > MAX_SPREAD or not (lasted or abs(correction) >= TURNED_ROUND):
+            return None
+        return correction, spread
 
     def sense(self) -> Sense | None:
         """Which way round the sensor turns, from the window's straight runs: read as it is,
