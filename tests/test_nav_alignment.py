@@ -147,6 +147,25 @@ def test_an_offset_short_of_turned_round_must_be_seen_to_last_without_a_gap() ->
     assert broken.estimate() is None
 
 
+def test_runs_need_not_last_once_the_fixes_said_the_filter_is_off() -> None:
+    """40° off for 12 s of runs: not long enough to be told from a kick, unless position
+    fixes refused in a row said the filter itself is off (the fix watch), as a filter
+    steering by a sensor out from the start is at once."""
+    short = MotionAlignment()
+    _straight(short, 0.0, 40.0, 20.0)
+    assert short.estimate() is None
+    told = MotionAlignment()
+    end = _straight(told, 0.0, 40.0, 15.0)
+    told.filter_off(end)
+    _straight(told, 0.0, 40.0, 5.0, t0=end)
+    found = told.estimate()
+    assert found is not None and found.told
+    assert math.degrees(found.correction) == pytest.approx(-40.0, abs=0.5)
+    told.clear()
+    _straight(told, 0.0, 40.0, 20.0, t0=end + 10.0)
+    assert told.estimate() is None  # used: the next estimate waits again
+
+
 def test_a_stale_bias_is_told_from_the_heading_the_filter_held_across_gaps() -> None:
     """The filter held its heading from the motion while it refused a sensor now 100° off
     (its bias went stale): fixes 2 m apart in error put the courses tens of degrees out, and

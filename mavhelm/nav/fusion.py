@@ -1109,6 +1109,7 @@ class Fusion:
         if decision is None or self.safety.disagreeing:
             return ekf
         ekf.widen_position(off)
+        self.alignment.filter_off(t)
         self._decide(decision)
         return self._doubt_heading(t)
 
