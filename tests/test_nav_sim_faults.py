@@ -26,6 +26,8 @@ import math
 import re
 import subprocess
 import sys
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -39,24 +41,33 @@ RANGES = RADIO_RANGES + "    LSQTimeOut = NEVER\n"
 (the GPS queue source would otherwise pass the faulted fixes straight to NAV)."""
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
-    folder = tmp_path_factory.mktemp("sim_faults")
-    nav = RANGES.replace("GPS @ 2, EKF @ 2", "EKF @ 2")
-    run = start(nav, ranging="radio", dvl=False, tmp_path=folder, logs=True)
+def _replayed(lines: str, folder: Path, seconds: float, *replay_args: str,
+              **rig: Any) -> str:
+    """The box patrol with these pNav ``lines`` (every position from the EKF) run in the
+    simulator for ``seconds`` and recorded, then ``mavhelm nav replay`` over the recording
+    with ``replay_args``: its report."""
+    nav = lines.replace("GPS @ 2, EKF @ 2", "EKF @ 2")
+    run = start(nav, tmp_path=folder, logs=True, **rig)
     try:
         run.run.hand_over()
-        run.run.run_for(400.0)
+        run.run.run_for(seconds)
     finally:
         run.close()
     mission = folder / "replay.moos"
     mission.write_text("ProcessConfig = pNav\n{\n" + nav + "}\n")
     done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(mission),
-                           str(folder / "nav.alog"), "--fault", "all", "--no-nav-log"],
+                           str(folder / "nav.alog"), "--no-nav-log", *replay_args],
                           capture_output=True, text=True, check=False)
     print(done.stdout)
     assert done.returncode == 0, done.stdout + done.stderr
-    runs = re.split(r"^== fault (\w+) ==$", done.stdout, flags=re.M)
+    return done.stdout
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    text = _replayed(RANGES, tmp_path_factory.mktemp("sim_faults"), 400.0, "--fault", "all",
+                     ranging="radio", dvl=False)
+    runs = re.split(r"^== fault (\w+) ==$", text, flags=re.M)
     return {"none": runs[0], **dict(zip(runs[1::2], runs[2::2], strict=True))}
 
 
@@ -138,30 +149,20 @@ def test_the_published_uncertainty_is_honest_on_the_simulator_run(report) -> Non
 def test_a_compass_out_from_the_start_on_gps_dvl_and_gyro_is_realigned_to_its_offset(
         tmp_path) -> None:
     """The box patrol on GPS, compass, DVL and gyro (no ranges), every position from the
-    EKF, its compass 113° out from the start (``heading_offset`` seed 3): the heading is
-    taken from the courses made good once their runs have lasted, at the sensor's own
-    offset. Before, the runs' corrections (each against the bias the filter held then,
-    while it learned 40-odd degrees of it from the GPS) were added to the bias now, which
-    counted that twice: 11.94 m RMS. Most of what is left is the 35 s before."""
+    EKF, its compass 113° out from the start (``heading_offset`` seed 3): the GPS fixes,
+    refused in a row as the filter steers its dead reckoning by the compass, say the filter
+    is off, and the courses made good then turn the heading at the sensor's own offset
+    from their first three runs. Before, the runs had to last 25 s, and their corrections
+    (each against the bias the filter held then, while it learned 40-odd degrees of it from
+    the GPS) were added to the bias now, which counted that twice: 16.8 m RMS over 300 s
+    (taken at 35 s, 3.5 m with the offset counted once)."""
     from tests.support.nav_sim_rig import DEAD_RECKONING
 
-    nav = DEAD_RECKONING.replace("GPS @ 2, EKF @ 2", "EKF @ 2")
-    run = start(nav, dvl=True, tmp_path=tmp_path, logs=True)
-    try:
-        run.run.hand_over()
-        run.run.run_for(300.0)
-    finally:
-        run.close()
-    mission = tmp_path / "replay.moos"
-    mission.write_text("ProcessConfig = pNav\n{\n" + nav + "}\n")
-    done = subprocess.run([sys.executable, "-m", "mavhelm.cli", "nav", "replay", str(mission),
-                           str(tmp_path / "nav.alog"), "--fault", "heading_offset",
-                           "--faults-only", "--seed", "3", "--no-nav-log"],
-                          capture_output=True, text=True, check=False)
-    print(done.stdout)
-    assert done.returncode == 0, done.stdout + done.stderr
-    taken = re.search(r"heading taken from the motion: the orientation sensor reads "
-                      r"([+-]\d+)° off the course", done.stdout)
-    assert taken and abs(int(taken.group(1)) + 113) <= 3, done.stdout
-    nav_rms, _ = _score(done.stdout, "NAV")
-    assert nav_rms <= 4.0, done.stdout
+    text = _replayed(DEAD_RECKONING, tmp_path, 300.0, "--fault", "heading_offset",
+                     "--faults-only", "--seed", "3", dvl=True)
+    taken = re.search(r"^ +([\d.]+) s  heading: heading taken from the motion: the "
+                      r"orientation sensor reads ([+-]\d+)° off the course", text, flags=re.M)
+    assert taken and abs(int(taken.group(2)) + 113) <= 3, text
+    assert float(taken.group(1)) < 20.0, text
+    nav_rms, _ = _score(text, "NAV")
+    assert nav_rms <= 1.5, text
