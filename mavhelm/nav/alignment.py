@@ -267,7 +267,9 @@ class MotionAlignment:
         ``TURNED_ROUND``); or the sensor's offset from the filter's heading, where they agree
         on that within ``MAX_SPREAD`` and it is larger than that, gaps or not: free of the
         courses' errors, it is a steady offset, not a kick that runs in it happened to
-        share. Else None."""
+        share. The span is waived once the fixes said the filter is off (:meth:`filter_off`),
+        and the sensor's raw offset from the courses is taken instead of the corrections
+        where it agrees more tightly (:meth:`_steady`). Else None."""
         if self._fresh:
             return self._estimate
         self._fresh, self._estimate = True, None
