@@ -636,6 +636,7 @@ def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_t
     1614 s and re-initialised it there (41.8 m off, 7.37 m RMS). The LSQ now leaves out a
     beacon held off its survey while three others remain."""
     from mavhelm.nav import faults
+    from mavhelm.nav.filter_safety import REINITIALISED
     from mavhelm.nav.replay import replay
 
     alog, mission = plaza
@@ -648,7 +649,7 @@ def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_t
     print(f"\nbeacon 0 20 m off, seed 1: NAV {result.accuracy()}")
     blamed = [d for d in fusion.decisions if "it is off its survey" in d.why]
     assert blamed and "beacon 0's" in blamed[0].why, result.report()
-    after = [d for d in fusion.decisions if d.t > blamed[0].t and d.kind == "reinitialised"]
+    after = [d for d in fusion.decisions if d.t > blamed[0].t and d.kind == REINITIALISED]
     assert not after, result.report()
     track, truth = result.tracks["NAV"], result.truth
     t = np.array(track.t)

@@ -303,16 +303,20 @@ class MotionAlignment:
         DVL and gyro, its compass 117° out from the start: the bias learned 47° in 25 s,
         the corrections spread past 15° until then, and the heading was taken 152° out,
         18.9 m off, 2.15 m RMS). Where both agree, the tighter is taken."""
-        courses = self._courses
-        if len(courses) < SAMPLES:
+        if len(self._courses) < SAMPLES:
             return None
-        offsets = [raw - course for _, course, raw in courses]
-        offset, spread = _circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)),
-                                   len(offsets))
+        offset, spread = self._raw_offset(1.0)
         correction = math.remainder(offset - self._bias, 2 * math.pi)
         if spread > MAX_SPREAD or not (lasted or abs(correction) >= TURNED_ROUND):
             return None
         return correction, spread
+
+    def _raw_offset(self, sign: float) -> tuple[float, float]:
+        """The circular mean and spread of the sensor's mean raw reading (negated where
+        ``sign`` is −1: read the wrong way round) less the course, over the straight runs."""
+        offsets = [sign * raw - course for _, course, raw in self._courses]
+        return _circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)),
+                         len(offsets))
 
     def sense(self) -> Sense | None:
         """Which way round the sensor turns, from the window's straight runs: read as it is,
@@ -320,15 +324,11 @@ class MotionAlignment:
         courses made good across the vehicle's turns, where the other way's offsets turn
         with them. None with fewer than ``SENSE_RUNS`` runs, or where neither way is
         clearly the one (runs all along one course cannot tell)."""
-        courses = self._courses
-        n = len(courses)
+        n = len(self._courses)
         if n < SENSE_RUNS:
             return None
-        ways = []
-        for sign in (1.0, -1.0):  # the reading as it is, then negated
-            offsets = [sign * raw - course for _, course, raw in courses]
-            ways.append(_circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)), n))
-        (as_read, spread), (negated, negated_spread) = ways
+        as_read, spread = self._raw_offset(1.0)
+        negated, negated_spread = self._raw_offset(-1.0)
         if negated_spread <= SENSE_SPREAD and spread >= SENSE_RATIO * negated_spread:
             return Sense(True, negated, negated_spread, n, self._velocity)
         if spread <= SENSE_SPREAD and negated_spread >= SENSE_RATIO * spread:
