@@ -156,6 +156,24 @@ def test_growing_refusals_to_two_beacons_say_the_filter_drifted_off() -> None:
         assert broken.adrift(float(t)) is None
 
 
+def test_outliers_refused_in_runs_do_not_say_the_filter_drifted_off() -> None:
+    """Runs of refused ranges to two beacons that disagree in sign, or spread far wider than
+    their size (range outliers, not a filter carried off), say nothing; one-way runs do."""
+    for a_run, b_run in [([50.5, 25.8, -34.6], [11.7, 28.7, -40.3]),  # either sign
+                         ([6.0, 48.0, 9.0], [-7.0, -45.0, -8.0])]:  # one sign, wild sizes
+        watch = BeaconWatch()
+        for k, (a, b) in enumerate(zip(a_run, b_run, strict=True)):
+            assert watch.refused(float(k), "A", False, a, 1.0) is None
+            assert watch.adrift(float(k)) is None
+            assert watch.refused(k + 0.5, "B", False, b, 1.0) is None
+            assert watch.adrift(k + 0.5) is None
+    steady = BeaconWatch()
+    for k, (a, b) in enumerate([(20.0, -9.0), (24.0, -12.0), (27.0, -14.0)]):
+        steady.refused(float(k), "A", False, a, 1.0)
+        steady.refused(k + 0.5, "B", False, b, 1.0)
+    assert steady.adrift(2.5) is not None
+
+
 def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:
     """An offset learned 8 m wrong refuses every good range; re-opened (forgotten: back to
     its prior, value and covariance), the next one is used."""

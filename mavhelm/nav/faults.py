@@ -231,11 +231,16 @@ def beacon_moved(messages: list[Message], layout: Layout,
     return out
 
 
+OUTLIER_SHARE = 0.05
+"""The share of the ranges ``range_outliers`` makes wrong."""
+
+
 def range_outliers(messages: list[Message], layout: Layout,
                    rng: np.random.Generator) -> list[Message]:
     out = []
     for m in messages:
-        if _ranging(m, layout) and m.name.rpartition("_RANGE_")[1] and rng.random() < 0.05:
+        if (_ranging(m, layout) and m.name.rpartition("_RANGE_")[1]
+                and rng.random() < OUTLIER_SHARE):
             m = m._replace(value=max(m.double + rng.choice([-1.0, 1.0]) * rng.uniform(5, 50),
                                      0.5))
         out.append(m)
