@@ -143,6 +143,10 @@ ALIGN_RESET = math.radians(60.0)
 """rad: a heading this far out has misled every hidden state it touched (beacon offsets,
 range scale, the beacons' and channels' verdicts): they start again from their priors at
 the last fix, as a re-initialisation does."""
+FIT_FAR = 3.0
+"""A heading turned onto the ranges' but not so far that the filter restarts: where the
+track fitted to the ranges puts the vehicle this many combined 1-σ from the filter, the
+filter is told it (the position the wrong heading dead-reckoned is as wrong)."""
 ALIGN_SIGMA = math.radians(10.0)
 """rad: the least 1-σ of a heading taken from the motion."""
 ALIGN_SIGMA_VELOCITY = 0.5
@@ -848,12 +852,19 @@ class Fusion:
             ekf = self._add_yaw_bias(t)
         held = ekf.x.item(I_H)
         sigma = max(found.sigma, 1.0)
+        moved = False
         if restarted:  # as _align: so far out, every hidden state was misled too
             ekf.reinitialise(found.x, found.y, sigma, yaw=self._last_yaw if sensed else held)
             ekf.warnings.pop()  # the decision below says it
             self.noise = NoiseMatch()
             self.beacon_watch = self._new_beacon_watch()
             self.survey_check.clear()
+        else:
+            off = math.hypot(found.x - ekf.x.item(I_X), found.y - ekf.x.item(I_Y))
+            if off > FIT_FAR * math.hypot(sigma, ekf.position_sigma()):
+                ekf.widen_position(off)
+                ekf.update(Position(t, found.x, found.y, sigma))
+                moved = True
         if sensed:
             ekf.realign_heading(found.bias, ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
         else:  # the filter's own heading was off by the turn found
@@ -874,7 +885,9 @@ class Fusion:
             + (f", the filter's bias {math.degrees(bias):+.0f}°" if sensed else "")
             + f"; heading turned by {math.degrees(turn):+.0f}°"
             + (f", the filter restarted at ({found.x:.1f}, {found.y:.1f}) ± {sigma:.1f} m"
-               if restarted else ""))))
+               if restarted else "")
+            + (f", its position moved to ({found.x:.1f}, {found.y:.1f}) ± {sigma:.1f} m"
+               if moved else ""))))
 
     def _test_sense(self, t: float) -> None:
         """While a yaw rate turns against a heading, which of the two is wrong: the track
