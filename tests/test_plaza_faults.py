@@ -629,6 +629,14 @@ def test_a_range_gap_beside_the_recordings_own_is_navigated_through(plaza) -> No
     assert result.consistency().above <= 0.05, result.report()
 
 
+def _nav_error(result) -> tuple[np.ndarray, np.ndarray]:
+    """NAV's ticks and its distance from the truth at each (m)."""
+    track, truth = result.tracks["NAV"], result.truth
+    t = np.array(track.t)
+    return t, np.hypot(np.array(track.x) - np.interp(t, truth.t, truth.x),
+                       np.array(track.y) - np.interp(t, truth.t, truth.y))
+
+
 def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_the_lsq(
         plaza, monkeypatch) -> None:
     """Plaza1 with beacon 0 20 m off its survey (seed 1): the track singles it out at 88 s,
@@ -651,11 +659,20 @@ def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_t
     assert blamed and "beacon 0's" in blamed[0].why, result.report()
     after = [d for d in fusion.decisions if d.t > blamed[0].t and d.kind == REINITIALISED]
     assert not after, result.report()
-    track, truth = result.tracks["NAV"], result.truth
-    t = np.array(track.t)
-    error = np.hypot(np.array(track.x) - np.interp(t, truth.t, truth.x),
-                     np.array(track.y) - np.interp(t, truth.t, truth.y))
+    t, error = _nav_error(result)
     assert error[t > blamed[0].t + 60.0].max() < 5.0, result.report()
+
+
+def _with_outliers(plaza, monkeypatch, share: float, seed: int):
+    """Plaza1 replayed with ``share`` of its ranges 5-50 m out (``range_outliers``)."""
+    from mavhelm.nav import faults
+    from mavhelm.nav.replay import replay
+
+    alog, mission = plaza
+    block = load_mission(mission).process("pNav")
+    assert block is not None
+    monkeypatch.setattr(faults, "OUTLIER_SHARE", share)
+    return replay(block, with_fault("range_outliers", read_alog(alog), layout_of(block), seed))
 
 
 def test_range_outliers_refused_in_runs_do_not_say_the_filter_is_off(plaza,
@@ -665,14 +682,7 @@ def test_range_outliers_refused_in_runs_do_not_say_the_filter_is_off(plaza,
     off while it was 0.06 m from the truth; widened by the 47 m refused, it took the next
     outliers and ran 49 m off (4.18 m RMS, NEES 30). A run says the filter is off only when
     its innovations agree in sign and size."""
-    from mavhelm.nav import faults
-    from mavhelm.nav.replay import replay
-
-    alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
-    monkeypatch.setattr(faults, "OUTLIER_SHARE", 0.2)
-    result = replay(block, with_fault("range_outliers", read_alog(alog), layout_of(block), 3))
+    result = _with_outliers(plaza, monkeypatch, 0.2, 3)
     fusion = result.navigator.fusion
     assert fusion is not None
     print(f"\na fifth of the ranges outliers, seed 3: NAV {result.accuracy()}, "
@@ -689,24 +699,14 @@ def test_a_bad_range_taken_at_the_boot_is_forgotten_with_the_scale_it_taught(
     filter 11 m off. Beacon 1's good ranges were then refused in a row and the offsets
     re-opened at 34 s, but with the scale kept the ranges put the vehicle back 11 m off (for
     500 s; 2.29 m RMS, NEES 7.5). The scale is forgotten with the offsets now."""
-    from mavhelm.nav import faults
-    from mavhelm.nav.replay import replay
-
-    alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
-    monkeypatch.setattr(faults, "OUTLIER_SHARE", 0.15)
-    result = replay(block, with_fault("range_outliers", read_alog(alog), layout_of(block), 3))
+    result = _with_outliers(plaza, monkeypatch, 0.15, 3)
     fusion = result.navigator.fusion
     assert fusion is not None
     print(f"\n15 % of the ranges outliers, seed 3: NAV {result.accuracy()}, "
           f"NEES {result.consistency()}")
     reopened = [d.t for d in fusion.decisions if "were all refused" in d.why]
     assert reopened, result.report()
-    track, truth = result.tracks["NAV"], result.truth
-    t = np.array(track.t)
-    error = np.hypot(np.array(track.x) - np.interp(t, truth.t, truth.x),
-                     np.array(track.y) - np.interp(t, truth.t, truth.y))
+    t, error = _nav_error(result)
     after = (t > reopened[0] + 5.0) & (t < reopened[0] + 60.0)
     assert error[after].max() < 2.0, result.report()
     assert result.consistency().mean <= 3.0, result.report()
@@ -735,8 +735,5 @@ def test_a_heading_turned_from_the_ranges_moves_the_position_they_fit(plaza,
     moved = [d.t for d in fusion.decisions if "its position moved to" in d.why]
     assert moved, result.report()
     assert not [d for d in fusion.decisions if d.kind == REINITIALISED], result.report()
-    track, truth = result.tracks["NAV"], result.truth
-    t = np.array(track.t)
-    error = np.hypot(np.array(track.x) - np.interp(t, truth.t, truth.x),
-                     np.array(track.y) - np.interp(t, truth.t, truth.y))
+    t, error = _nav_error(result)
     assert error[(t > moved[0] + 1.0) & (t < moved[0] + 20.0)].max() < 2.0, result.report()
