@@ -147,8 +147,9 @@ class BeaconWatch:
         survey whatever the offsets say, until the track singles out another."""
         self._refusals: dict[str, deque[float]] = {}
         self._last_refused: dict[str, float] = {}
-        self._sigma: dict[str, float] = {}
         """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
+        self._sigma: dict[str, float] = {}
+        """Each beacon's ranges' σ (m) at its last refusal."""
 
     def deviations(self, ekf: EKF) -> dict[str, tuple[float, float]]:
         """Each beacon's deviation (m) from the median offset of every beacon (with three,

@@ -863,8 +863,7 @@ class Fusion:
             off = math.hypot(found.x - ekf.x.item(I_X), found.y - ekf.x.item(I_Y))
             if off > FIT_FAR * math.hypot(sigma, ekf.position_sigma()):
                 ekf.widen_position(off)
-                ekf.update(Position(t, found.x, found.y, sigma))
-                moved = True
+                moved = ekf.update(Position(t, found.x, found.y, sigma)).verdicts[0].accepted
         if sensed:
             ekf.realign_heading(found.bias, ALIGN_SIGMA, found.velocity, ALIGN_SIGMA_VELOCITY)
         else:  # the filter's own heading was off by the turn found
