@@ -1041,8 +1041,7 @@ class Fusion:
                         not self.safety.disagreeing or self._sense_test is not None):
                     lockout = adrift = self.beacon_watch.adrift(t)
                 if lockout is not None:
-                    self._forget(ekf, abs(verdict.innovation), adrift=adrift is not None,
-                                 scale=True)
+                    self._forget(ekf, abs(verdict.innovation), adrift=adrift is not None)
                     self._decide(lockout)
                     self._doubt_from_ranges(t)
                 if adrift is not None and self.heading_watch.course_defined(t):
@@ -1127,7 +1126,7 @@ class Fusion:
         return self._doubt_heading(t)
 
     def _forget(self, ekf: EKF, error: float, but: str | None = None,
-                fit: Fit | None = None, adrift: bool = False, scale: bool = False) -> None:
+                fit: Fit | None = None, adrift: bool = False) -> None:
         """What the ranges taught the filter, doubted (:mod:`mavhelm.nav.beacon_watch`): a
         beacon off its survey, or a bad range accepted at the boot, that locked out good
         ones. Every beacon's offset but ``but``'s is re-opened to its prior and the
@@ -1137,21 +1136,21 @@ class Fusion:
         there, then told it. Where the ranges of several beacons say the filter is
         ``adrift``, the LSQ's last fix says where they put the vehicle (:meth:`_lsq_anchor`);
         one beacon's ranges refused (most likely that beacon off its survey) leave it: its
-        ranges are in that fix. With ``scale`` (ranges refused in a row, either way) the
-        range scale every beacon shares is forgotten too: a bad range taken at the boot
-        teaches it as much as the offsets (Plaza1, 15 % of the ranges 5-50 m out, seed 3: one
-        12 m short, taken 2.7 s in at the still start, set the scale to −9 %; the offsets
-        re-opened alone, the ranges put the vehicle back 11 m off, 2.29 m RMS, NEES 7.5; with
-        the scale, 1 m off at once, 1.56 m, NEES 2.6; Plaza1's one beacon 5 m off, seed 2,
-        0.65 → 0.73 m, its other draws and beacons unchanged). The survey check's blame keeps
-        the scale."""
+        ranges are in that fix. Where no beacon is blamed (``but`` None: ranges refused in a
+        row, either way) the range scale every beacon shares is forgotten too: a bad range
+        taken at the boot teaches it as much as the offsets (Plaza1, 15 % of the ranges 5-50
+        m out, seed 3: one 12 m short, taken 2.7 s in at the still start, set the scale to
+        −9 %; the offsets re-opened alone, the ranges put the vehicle back 11 m off, 2.29 m
+        RMS, NEES 7.5; with the scale, 1 m off at once, 1.56 m, NEES 2.6; Plaza1's one
+        beacon 5 m off, seed 2, 0.65 → 0.73 m, its other draws and beacons unchanged). The
+        survey check's blame keeps the scale."""
         anchor = (Position(fit.t, fit.x, fit.y, fit.sigma) if fit is not None
                   else self._lsq_anchor(ekf) if adrift else None)
         if anchor is not None:
             error = max(error, math.hypot(anchor.x - ekf.x.item(I_X),
                                           anchor.y - ekf.x.item(I_Y)))
         ekf.reopen_offsets([name for name in ekf.beacons if name != but], error,
-                           scale=scale)
+                           scale=but is None)
         if anchor is not None:
             ekf.update(anchor)
 
