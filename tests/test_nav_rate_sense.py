@@ -106,6 +106,24 @@ def test_a_rate_forgiven_is_taken_as_it_reads_and_judged_afresh() -> None:
     assert [f.reversed for _, f in again] == [False]
 
 
+def test_a_mirrored_rate_is_taken_the_other_way_round_and_judged_afresh() -> None:
+    """The ranges found the heading read the wrong way round with its rate
+    (``Fusion._mirror_from_ranges``): the heading is read negated from then on, the rate
+    too, and the two then agree; mirrored once more, the rate reads as it did. Without the
+    votes forgotten, the twenty agreeing votes taken as read would find the rate "again"
+    at the next turn."""
+    sense, findings = _weave(120.0)
+    assert not findings and not sense.reversed
+    sense.mirror()
+    assert sense.reversed == {"gyro"}
+    sense, after = _weave(120.0, rate_sign=-1.0, sense=sense, t0=120.0)  # as the sensor reads
+    assert not after and sense.reversed == {"gyro"}
+    sense.mirror()
+    assert not sense.reversed
+    sense, after = _weave(120.0, sense=sense, t0=240.0)
+    assert not after and not sense.reversed
+
+
 MISSION = ("ProcessConfig = pNav\n{" + EKF_GPS_COMPASS
            + "  SENSOR_BODY_VEL = INS -> gyro @ 0,0,0 ~ 0.5\n  FIXEDSIDESLIP = 0 @ 0.3\n}\n")
 """The EKF on GPS and compass, with a gyro's yaw rate and a sideslip constraint."""

@@ -351,8 +351,8 @@ class Fusion:
         self._range_heading: RangeHeading | None = None
         """The ranges' last answer, which the next must confirm."""
         self._mirrored_said: bool | None = None
-        """Without a heading sensor, the ranges' last answer to whether the yaw rate reads
-        the wrong way round (:meth:`_rate_sense_from_ranges`)."""
+        """The ranges' last answer to whether the headings (a sensor's, else the yaw rate's
+        integral) turn the wrong way round (:meth:`_mirror_from_ranges`)."""
         self._questioned = (-math.inf, 0.0)
         """(when last asked, s under way since the ranges were first asked) for
         :meth:`_heading_in_question`."""
@@ -375,6 +375,8 @@ class Fusion:
         self._seq = itertools.count()
         self._stream: list[Fix] = []
         self._last_yaw: float | None = None
+        self._heading_sensor: str | None = None
+        """The sensor of the latest heading reading (``_last_yaw``)."""
         self._rules = {r.sensor: r for r in config.rejection}
         self._channels: dict[tuple[str, str], SensorChannel] = {}
         self._xlog_header = False
@@ -554,7 +556,7 @@ class Fusion:
             kept = self._not_stuck(t, kept, self.ekf.x.item(I_VH))
         for r in kept:
             if isinstance(r.obs, Yaw):
-                self._last_yaw = r.obs.z
+                self._last_yaw, self._heading_sensor = r.obs.z, r.sensor.name
         kept = self._sensed(t, kept)
         if self.ekf is not None:
             self._kicked(t, kept)
@@ -789,7 +791,7 @@ class Fusion:
         self._range_doubt = (until, t + RANGE_CHECK_EVERY)
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
-        if not self.config.heading_sensed and self._rate_sense_from_ranges(t, near):
+        if self._mirror_from_ranges(t, near):
             return
         found = self.range_alignment.estimate(near)
         if found is not None and self.kick_offset:  # the sensor as it reads, its jump with it
@@ -807,13 +809,18 @@ class Fusion:
                                   abs(math.remainder(found.bias - bias, 2 * math.pi))
                                   > ALIGN_RESET)
 
-    def _rate_sense_from_ranges(self, t: float, near: tuple[float, float]) -> bool:
-        """Without a heading sensor nothing turns against a yaw rate of the wrong sense, but
-        the track the filter's heading (the rate's integral) dead-reckons bends the wrong way
-        through every turn: where it fits the ranges only mirrored
-        (:meth:`RangeAlignment.sense`), twice in a row, every rate heard is taken the other
-        way round from now on, the window and the filter's heading mirrored with it and what
-        the rate taught forgotten; the ranges' next answers turn the heading. Whether it did."""
+    def _mirror_from_ranges(self, t: float, near: tuple[float, float]) -> bool:
+        """Where no heading turns against a yaw rate, a rate of the wrong sense goes unseen:
+        without a heading sensor, or where the heading sensor is the rate's own integral
+        read the wrong way round with it (an odometer or an AHRS giving its clockwise
+        heading and rate where pNav's are anticlockwise). The track the headings
+        dead-reckon then bends the wrong way through every turn: where it fits the ranges
+        only mirrored (:meth:`RangeAlignment.sense`), twice in a row, the heading sensor
+        and every rate heard are taken the other way round from now on, the window and the
+        filter's heading mirrored with them and what they taught forgotten; the ranges'
+        next answers turn the heading (with a sensor, at once: it reads anywhere now).
+        Whether it did. (Plaza1, its odometry's heading and rate both negated: 8-14 m RMS,
+        the filter re-initialised and turned by the ranges over and over.)"""
         said, self._mirrored_said = self._mirrored_said, self.range_alignment.sense(near)
         if not (said and self._mirrored_said):
             return False
@@ -821,23 +828,38 @@ class Fusion:
         ekf = self.ekf
         assert ekf is not None
         sense = self.rate_sense
-        for name in sense.heard:
-            if name in sense.reversed:
-                sense.forgive(name)
-            else:
-                sense.reversed.add(name)
+        sense.mirror()
+        rates = ", ".join(sense.heard) or "none"
         self.range_alignment.mirror()
         self.alignment.clear()
-        ekf.forget_turn(-ekf.x.item(I_H))
         self._range_heading = None
-        self._doubt_from_ranges(t)
+        sensor = self._heading_sensor
+        if not self.config.heading_sensed or sensor is None:
+            ekf.forget_turn(-ekf.x.item(I_H))
+            self._doubt_from_ranges(t)
+            self._decide(Decision(t, HEADING, (
+                "with no heading sensor, the track the yaw rate turns fits the ranges only "
+                "mirrored: the rate " + rates + " is of the wrong sense, taken negated from "
+                "now on (check its sign: pNav's yaw rate is anticlockwise-positive, a NED "
+                "gyro's clockwise)" if sense.reversed else
+                "with no heading sensor, the track the yaw rate turns fits the ranges as it "
+                "reads after all: the rate taken as it reads again")))
+            return True
+        self.reversed_headings.symmetric_difference_update({sensor})
+        self.heading_kick = HeadingKick()  # its readings negated from now: no step
+        self.kick_offset = -self.kick_offset  # as the window's headings, mirrored
+        if self._last_yaw is not None:
+            self._last_yaw = -self._last_yaw
+        self._retake_heading()
         self._decide(Decision(t, HEADING, (
-            "with no heading sensor, the track the yaw rate turns fits the ranges only "
-            "mirrored: the rate " + ", ".join(sense.heard) + " is of the wrong sense, taken "
-            "negated from now on (check its sign: pNav's yaw rate is anticlockwise-positive, "
-            "a NED gyro's clockwise)" if sense.reversed else
-            "with no heading sensor, the track the yaw rate turns fits the ranges as it "
-            "reads after all: the rate taken as it reads again")))
+            f"the track the heading of sensor {sensor} dead-reckons fits the ranges only "
+            f"mirrored, and the yaw rate ({rates}) turns with it: both are of the wrong "
+            f"sense, taken negated from now on (check their convention: S_YAW and the yaw "
+            f"rate anticlockwise, S_HEADING clockwise from north)"
+            if sensor in self.reversed_headings else
+            f"the track the heading of sensor {sensor} dead-reckons fits the ranges only "
+            f"as it reads after all: it and the yaw rate ({rates}) taken as they read")))
+        self._heading_after_sense(t, near, None, restart=True)
         return True
 
     def _heading_from_ranges(self, t: float, found: RangeHeading, bias: float,

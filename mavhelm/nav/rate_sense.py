@@ -156,6 +156,16 @@ class RateSense:
             state.votes.clear()
         self._headings.clear()
 
+    def mirror(self) -> None:
+        """Every rate heard taken the other way round from now on, their votes and every
+        heading's last reading forgotten: the ranges found the turns of the wrong sense
+        where no heading turned against them (none sensed, or one read the wrong way round
+        with its rate)."""
+        for name, state in self._rates.items():
+            self.reversed.symmetric_difference_update({name})
+            state.votes.clear()
+        self._headings.clear()
+
     def _judge(self, name: str, heading: str, votes: deque[bool]) -> Finding | None:
         if len(votes) < VOTES:
             return None
