@@ -171,7 +171,10 @@ def test_outliers_refused_in_runs_do_not_say_the_filter_drifted_off() -> None:
     for k, (a, b) in enumerate([(20.0, -9.0), (24.0, -12.0), (27.0, -14.0)]):
         steady.refused(float(k), "A", False, a, 1.0)
         steady.refused(k + 0.5, "B", False, b, 1.0)
+    assert steady.adrift_beacons(2.5) == ["A", "B"]  # asked while the LSQ's verdict is awaited
+    assert steady.adrift_beacons(2.5) == ["A", "B"]  # ... it forgets nothing
     assert steady.adrift(2.5) is not None
+    assert steady.adrift_beacons(2.5) == []  # said: counting again
 
 
 def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:

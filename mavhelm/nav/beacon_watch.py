@@ -113,7 +113,8 @@ once (seed 3), a kick taken for a turn carried the position 15 m off in 27 s whi
 beacons' ranges were refused (1.42 m RMS; 0.79 m with the rule, the owner also doubting the
 heading). It never fired on Plaza1 as recorded, nor on seeds 1-7 of its single faults. The
 owner holds it while a trusted LSQ already disagrees beyond ``MaxLSQEKFDeviation``: the
-re-initialisation (spec 2.2.9) is on its way. Its cost: widened before the heading is
+re-initialisation (spec 2.2.9) is on its way; it asks the ranges for the heading meanwhile
+(``adrift_beacons``, which forgets nothing). Its cost: widened before the heading is
 realigned, a heading turned round from the start is realigned later (Plaza1, 180° out:
 2.25 → 3.46 m RMS).
 
@@ -202,11 +203,8 @@ class BeaconWatch:
         """After a refusal: a decision when the ranges refused in a row say the filter is
         off rather than a beacon (the owner widens its position and re-opens the offsets,
         as for a lock-out)."""
-        adrift = sorted(name for name, run in self._refusals.items()
-                        if len(run) >= ADRIFT_RUN
-                        and t - self._last_refused.get(name, -math.inf) <= ADRIFT_WINDOW
-                        and _one_way(list(run)[-ADRIFT_RUN:], self._sigma[name]))
-        if len(adrift) < ADRIFT_BEACONS:
+        adrift = self.adrift_beacons(t)
+        if not adrift:
             return None
         for run in self._refusals.values():
             run.clear()
@@ -214,6 +212,15 @@ class BeaconWatch:
                         f"refused {ADRIFT_RUN} or more times in a row: the filter is off, "
                         "not a beacon: its position is doubted and widened, the range "
                         "offsets learned re-opened")
+
+    def adrift_beacons(self, t: float) -> list[str]:
+        """The beacons whose ranges refused in a row say the filter is off, when there are
+        ``ADRIFT_BEACONS`` of them or more (else none); nothing forgotten."""
+        adrift = sorted(name for name, run in self._refusals.items()
+                        if len(run) >= ADRIFT_RUN
+                        and t - self._last_refused.get(name, -math.inf) <= ADRIFT_WINDOW
+                        and _one_way(list(run)[-ADRIFT_RUN:], self._sigma[name]))
+        return adrift if len(adrift) >= ADRIFT_BEACONS else []
 
     def review(self, t: float, ekf: EKF, singled_out: str | None = None) -> list[Decision]:
         """The weights brought up to date; ``newly_off`` names the beacon just found off its

@@ -1059,9 +1059,13 @@ class Fusion:
                 # unless it is open which way the heading turns: the filter takes no heading
                 # then, and ran 25 m off while the count of fixes the re-initialisation waits
                 # for came (Plaza1 from 800 s, booted under way, 2.17 m RMS)
-                if lockout is None and not verdict.accepted and (
-                        not self.safety.disagreeing or self._sense_test is not None):
-                    lockout = adrift = self.beacon_watch.adrift(t)
+                if lockout is None and not verdict.accepted:
+                    if not self.safety.disagreeing or self._sense_test is not None:
+                        lockout = adrift = self.beacon_watch.adrift(t)
+                    elif self.beacon_watch.adrift_beacons(t):
+                        # awaited, the ranges still asked for the heading: with half
+                        # Plaza1's ranges the six fixes took 40 s, the filter ran 97 m off
+                        self._doubt_from_ranges(t)
                 if lockout is not None:
                     self._forget(ekf, abs(verdict.innovation), adrift=adrift is not None)
                     self._decide(lockout)
