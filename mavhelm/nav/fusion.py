@@ -84,8 +84,8 @@ from mavhelm.nav.lsq import LSQ, Fix
 from mavhelm.nav.noise_match import NoiseMatch
 from mavhelm.nav.range_alignment import MIN_BEACONS as RANGE_MIN_BEACONS
 from mavhelm.nav.range_alignment import MIN_TURN as RANGE_MIN_TURN
+from mavhelm.nav.range_alignment import SENSE_EITHER, RangeAlignment, RangeHeading
 from mavhelm.nav.range_alignment import WINDOW as RANGE_WINDOW
-from mavhelm.nav.range_alignment import RangeAlignment, RangeHeading
 from mavhelm.nav.rate_sense import RateSense
 from mavhelm.nav.sensor_channel import LSQ_REJECTION, RejectionRule, SensorChannel
 from mavhelm.nav.sensors import (
@@ -937,7 +937,8 @@ class Fusion:
         self._sense_test = (until, t + SENSE_CHECK_EVERY, rate, heading)
         near = self._last_fix[:2] if self._last_fix is not None else (ekf.x.item(I_X),
                                                                       ekf.x.item(I_Y))
-        by_ranges = self.range_alignment.sense(near) if self.config.beacons else None
+        by_ranges = (self.range_alignment.sense(near, SENSE_EITHER) if self.config.beacons
+                     else None)
         by_courses = self.alignment.sense() if by_ranges is None else None
         answer = by_ranges if by_ranges is not None else (
             by_courses.reversed if by_courses is not None else None)

@@ -81,6 +81,16 @@ holds."""
 SENSE_RATIO: Final = 3.0
 """How many times better the track must fit one way round than the other (at its best turn
 each) to tell which way the headings turn."""
+SENSE_EITHER: Final = 2.0
+"""The same where one way round is known to be wrong, the question only which (a yaw rate
+turned against a heading: one of the two is reversed). Range outliers raise both fits' χ²
+(each counted at most ``survey_check.TRUNCATE`` σ), which narrows the ratio: Plaza1 with
+its heading reversed and range outliers (seeds 2-3) fitted 2.0-2.9 times better negated
+for 30-50 s before a ratio of 3 told it (0.71, 0.87 m RMS; the defaults' mission with the
+rate reversed, seed 2, 2.25 m); at 2 it is told 10-12 s after the question opens, as
+without outliers (0.52, 0.43, 0.55 m). Every answer of Plaza1's reversed heading or rate,
+alone or joined with outliers, jumps, drift or a beacon moved, on starts under way and
+thinned ranges, was the right one at either ratio."""
 MAX_CHI2: Final = 2.0
 """The best fit's robust χ² per degree of freedom at most (the ranges' σ as the filter
 weighs them): a track of the wrong shape (a stuck sensor's, the vehicle turning) fits no
@@ -181,9 +191,9 @@ class RangeAlignment:
         return RangeHeading(best.t, wrap_angle(-turn), best.x, best.y, best.sigma, velocity,
                             best.chi2, chi2_other)  # the true yaw: the reading turned
 
-    def sense(self, near: tuple[float, float]) -> bool | None:
+    def sense(self, near: tuple[float, float], ratio: float = SENSE_RATIO) -> bool | None:
         """Whether the headings turn the wrong way: True where the track dead-reckoned from
-        them negated fits the ranges ``SENSE_RATIO`` times better (robust χ² per degree of
+        them negated fits the ranges ``ratio`` times better (robust χ² per degree of
         freedom) than from them as read, at any turn of either, False where as read fits so
         much better, None where the window cannot tell (a straight track is its own mirror
         image turned)."""
@@ -194,9 +204,9 @@ class RangeAlignment:
                 return None
             best.append(min(f[0].chi2 for f in fitted))
         as_read, negated = best
-        if negated <= MAX_CHI2 and as_read >= SENSE_RATIO * negated:
+        if negated <= MAX_CHI2 and as_read >= ratio * negated:
             return True
-        if as_read <= MAX_CHI2 and negated >= SENSE_RATIO * as_read:
+        if as_read <= MAX_CHI2 and negated >= ratio * as_read:
             return False
         return None
 
