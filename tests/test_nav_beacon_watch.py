@@ -130,7 +130,7 @@ def test_growing_refusals_to_two_beacons_say_the_filter_drifted_off() -> None:
     fates = [(0.0, "A", False, 4.0), (0.3, "A", False, 5.5), (1.0, "B", False, -3.0),
              (1.3, "B", False, -4.1), (2.0, "A", False, 7.2), (2.3, "C", True, 0.2),
              (3.0, "B", False, -6.4)]
-    said = [watch.refused(t, name, accepted, y, 1.0) or (None if accepted else watch.adrift(t))
+    said = [watch.refused(t, name, accepted, y, 1.0) or (None if accepted else watch.adrift(t, 1.0))
             for t, name, accepted, y in fates]
     assert said[:-1] == [None] * (len(fates) - 1)
     last = said[-1]
@@ -138,22 +138,22 @@ def test_growing_refusals_to_two_beacons_say_the_filter_drifted_off() -> None:
     assert "beacons A, B were each refused 3 or more times in a row" in last.why
     assert "the filter is off, not a beacon" in last.why
     assert watch.refused(3.5, "A", False, 8.0, 1.0) is None  # said once; counting again
-    assert watch.adrift(3.5) is None
+    assert watch.adrift(3.5, 1.0) is None
     one = BeaconWatch()
     for k in range(4):
         assert one.refused(0.2 * k, "A", False, 4.0 + 3.0 * k, 1.0) is None
-        assert one.adrift(0.2 * k) is None
+        assert one.adrift(0.2 * k, 1.0) is None
     apart = BeaconWatch()
     for t, name in [(0.0, "A"), (1.0, "A"), (2.0, "A"), (100.0, "B"), (101.0, "B"),
                     (102.0, "B")]:
         assert apart.refused(t, name, False, 4.0 + t % 3.0, 1.0) is None
-        assert apart.adrift(t) is None
+        assert apart.adrift(t, 1.0) is None
     broken = BeaconWatch()
     for t, name, accepted in [(0, "A", False), (1, "A", False), (2, "B", False),
                               (3, "B", False), (4, "A", True), (5, "A", False),
                               (6, "B", False)]:
         assert broken.refused(float(t), name, accepted, 6.0, 1.0) is None
-        assert broken.adrift(float(t)) is None
+        assert broken.adrift(float(t), 1.0) is None
 
 
 def test_outliers_refused_in_runs_do_not_say_the_filter_drifted_off() -> None:
@@ -164,17 +164,42 @@ def test_outliers_refused_in_runs_do_not_say_the_filter_drifted_off() -> None:
         watch = BeaconWatch()
         for k, (a, b) in enumerate(zip(a_run, b_run, strict=True)):
             assert watch.refused(float(k), "A", False, a, 1.0) is None
-            assert watch.adrift(float(k)) is None
+            assert watch.adrift(float(k), 1.0) is None
             assert watch.refused(k + 0.5, "B", False, b, 1.0) is None
-            assert watch.adrift(k + 0.5) is None
+            assert watch.adrift(k + 0.5, 1.0) is None
     steady = BeaconWatch()
     for k, (a, b) in enumerate([(20.0, -9.0), (24.0, -12.0), (27.0, -14.0)]):
         steady.refused(float(k), "A", False, a, 1.0)
         steady.refused(k + 0.5, "B", False, b, 1.0)
-    assert steady.adrift_beacons(2.5) == ["A", "B"]  # asked while the LSQ's verdict is awaited
-    assert steady.adrift_beacons(2.5) == ["A", "B"]  # ... it forgets nothing
-    assert steady.adrift(2.5) is not None
-    assert steady.adrift_beacons(2.5) == []  # said: counting again
+    assert steady.adrift_beacons(2.5, 1.0) == ["A", "B"]  # asked while the LSQ's verdict is awaited
+    assert steady.adrift_beacons(2.5, 1.0) == ["A", "B"]  # ... it forgets nothing
+    assert steady.adrift(2.5, 1.0) is not None
+    assert steady.adrift_beacons(2.5, 1.0) == []  # said: counting again
+
+
+def test_long_ranges_refused_in_runs_do_not_say_the_filter_drifted_off() -> None:
+    """Runs of one sign and agreeing sizes say nothing when the ranges themselves jump from
+    the beacon's last accepted one (rays round an obstacle, all long: Plaza1, a fifth of its
+    ranges 5-50 m long); the same innovations from ranges that go on smoothly (good ranges
+    refused against a filter carried off) say the filter is off. A range accepted far from
+    its prediction (at a boot, under a wide prior) is no reference."""
+    true = {"A": 40.0, "B": 60.0}
+
+    def heard(jumping: bool, accepted_innovation: float = 0.2) -> BeaconWatch:
+        watch = BeaconWatch()
+        for name in true:
+            watch.refused(0.0, name, True, accepted_innovation, 1.0, true[name])
+        runs = [(3.6, "A", 38.2), (3.8, "B", 46.9), (3.9, "A", 39.7), (8.5, "B", 36.2),
+                (8.7, "A", 42.8), (8.8, "B", 40.5)]  # as heard on Plaza1
+        for k, (t, name, y) in enumerate(runs):
+            # a drifting filter: the ranges go on as heard, the prediction moves off
+            z = true[name] + (y if jumping else 0.1 * k)
+            watch.refused(t, name, False, y, 1.0, z)
+        return watch
+
+    assert heard(jumping=True).adrift(8.8, 1.2) is None
+    assert heard(jumping=False).adrift(8.8, 1.2) is not None
+    assert heard(jumping=True, accepted_innovation=12.0).adrift(8.8, 1.2) is not None
 
 
 def test_a_reopened_offset_lets_the_beacons_ranges_in_again() -> None:

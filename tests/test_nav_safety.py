@@ -189,6 +189,7 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     assert set(FAULTS) == {"heading_wander", "heading_drift", "heading_scale", "heading_offset",
                            "heading_jumps",
                            "heading_stuck", "ranges_gap", "beacon_moved", "range_outliers",
+                           "ranges_long",
                            "gps_glitches", "yaw_rate_reversed", "heading_reversed",
                            "speed_scale"}
     for name in FAULTS:
@@ -205,6 +206,10 @@ def test_faults_are_deterministic_and_do_what_they_say() -> None:
     moved = [m.double for m in with_fault("beacon_moved", log, LAYOUT)
              if m.name == "R_RANGE_1"]
     assert 0.0 < abs(moved[0] - 10.0) <= 5.0
+    lengthened = [m.double - 10.0 for m in with_fault("ranges_long", log, LAYOUT)
+                  if m.name == "R_RANGE_1"]
+    long = [d for d in lengthened if d]
+    assert all(5.0 <= d <= 50.0 for d in long) and 0.1 < len(long) / len(lengthened) < 0.3
     glitched = [m.double for m in with_fault("gps_glitches", log, LAYOUT) if m.name == "G_X"]
     assert 1.5 < float(np.std(glitched[:60])) < 2.5 and max(glitched) > 25.0
     for seed in range(1, 6):

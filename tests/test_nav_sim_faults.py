@@ -85,7 +85,7 @@ MISSED: dict[str, float] = {}
 def test_each_fault_on_a_simulator_run(report) -> None:
     assert {"none", "heading_wander", "heading_drift", "heading_offset", "heading_jumps",
             "heading_stuck",
-            "ranges_gap", "beacon_moved", "range_outliers", "gps_glitches",
+            "ranges_gap", "beacon_moved", "range_outliers", "ranges_long", "gps_glitches",
             "yaw_rate_reversed", "heading_reversed", "speed_scale"} == set(report)
     # the gyro is this mission's only body-velocity sensor: no speed to scale, and it is said
     assert [f for f, text in report.items() if "finds nothing to act on" in text] == \

@@ -67,6 +67,7 @@ from __future__ import annotations
 import math
 import statistics
 from collections import deque
+from itertools import pairwise
 from typing import Final
 
 import numpy as np
@@ -124,7 +125,27 @@ one sign (a position off by ``d`` is refused ``−d·u`` by every range of a bea
 range outliers are refused in runs too, of either sign and any size: Plaza1 with 20 % of its
 ranges 5–50 m out (seed 3), runs of ``[50.5, 25.8, −34.6]`` and ``[28.7, −40.3, 47.4]`` said
 the filter was off while it was 0.06 m from the truth; widened by the 47 m refused, it took the
-next outliers and ran 49 m off (4.18 m RMS, NEES 30)."""
+next outliers and ran 49 m off (4.18 m RMS, NEES 30).
+
+Ranges that take a longer path (a radio or acoustic ray reflected round an obstacle, NLOS)
+are all long: their outliers share one sign, and runs such as ``[47.2, 17.8, 45.0]`` and
+``[38.2, 39.7, 42.8]`` passed those checks (Plaza1, a fifth of the ranges 5–50 m long, seed
+3: found adrift 0.2 m from the truth, moved to the LSQ's fix of the same outliers 54 m off,
+13.1 m RMS, NEES 44). Against a filter carried off it is the prediction that drifts; the
+ranges refused are good ones and go on as ranges heard along a track do. So the ranges
+measured (not the innovations) of a run must go on from the beacon's last range accepted
+(``_drifts``), each step within ``AGREEMENT`` σ plus ``DRIFT_SPEED`` times the filter's
+speed plus ``DRIFT_FLOOR`` times its time (a range changes no faster than the vehicle moves;
+twice, for a speed the filter has wrong). An accepted range counts only where it agreed with
+the filter within ``AGREEMENT`` σ: one taken far from its prediction under a wide prior (a
+still start) may itself be the outlier that carried the filter off. Every run found on
+Plaza1's heading faults, alone and joined, on the whole recording, half its ranges and
+starts under way (180 runs) still counts; the NLOS ranges above jumped 29–37 m within
+3.6 s of the last range accepted."""
+DRIFT_SPEED: Final = 2.0
+DRIFT_FLOOR: Final = 0.5
+"""m/s: ``_drifts``'s bound on how fast the ranges to a beacon change, ``DRIFT_SPEED`` times
+the filter's speed plus this."""
 
 
 class BeaconWatch:
@@ -146,9 +167,11 @@ class BeaconWatch:
         self.fixed: str | None = None
         """The beacon the track singled out (:mod:`mavhelm.nav.survey_check`): held off its
         survey whatever the offsets say, until the track singles out another."""
-        self._refusals: dict[str, deque[float]] = {}
-        self._last_refused: dict[str, float] = {}
-        """Each beacon's innovations (m) refused in a row, the latest ``LOCKED_OUT``."""
+        self._refusals: dict[str, deque[tuple[float, float, float]]] = {}
+        """Each beacon's ranges refused in a row, the latest ``LOCKED_OUT``: when each was
+        heard, its innovation (m) and the range measured (m)."""
+        self._accepted: dict[str, tuple[float, float, float]] = {}
+        """Each beacon's last range accepted, as the runs keep them."""
         self._sigma: dict[str, float] = {}
         """Each beacon's ranges' σ (m) at its last refusal."""
 
@@ -178,32 +201,33 @@ class BeaconWatch:
         return declared if deviation is None else math.hypot(declared, SWING * deviation)
 
     def refused(self, t: float, beacon: str, accepted: bool, innovation: float,
-                sigma: float) -> Decision | None:
+                sigma: float, z: float = math.nan) -> Decision | None:
         """One range's fate: a decision when ``beacon`` is locked out (the owner makes the
-        filter forget what the ranges taught it)."""
+        filter forget what the ranges taught it). ``z``: the range measured (m)."""
         if accepted:
+            self._accepted[beacon] = (t, innovation, z)
             if beacon in self._refusals:
                 self._refusals[beacon].clear()
             return None
-        refusals = self._refusals.get(beacon)
-        if refusals is None:
-            refusals = self._refusals[beacon] = deque(maxlen=LOCKED_OUT)
-        refusals.append(innovation)
-        self._last_refused[beacon] = t
+        run = self._refusals.get(beacon)
+        if run is None:
+            run = self._refusals[beacon] = deque(maxlen=LOCKED_OUT)
+        run.append((t, innovation, z))
         self._sigma[beacon] = sigma
+        refusals = [y for _, y, _ in run]
         if len(refusals) < LOCKED_OUT or max(refusals) - min(refusals) > AGREEMENT * sigma:
             return None
         mean = statistics.fmean(refusals)
-        refusals.clear()
+        run.clear()
         return Decision(t, BEACON, f"beacon {beacon}'s last {LOCKED_OUT} ranges were all "
                         f"refused, agreeing with each other ({mean:+.1f} m against the "
                         "filter): the range offsets learned are doubted and re-opened")
 
-    def adrift(self, t: float) -> Decision | None:
+    def adrift(self, t: float, speed: float) -> Decision | None:
         """After a refusal: a decision when the ranges refused in a row say the filter is
         off rather than a beacon (the owner widens its position and re-opens the offsets,
-        as for a lock-out)."""
-        adrift = self.adrift_beacons(t)
+        as for a lock-out). ``speed``: the filter's (m/s)."""
+        adrift = self.adrift_beacons(t, speed)
         if not adrift:
             return None
         for run in self._refusals.values():
@@ -213,14 +237,32 @@ class BeaconWatch:
                         "not a beacon: its position is doubted and widened, the range "
                         "offsets learned re-opened")
 
-    def adrift_beacons(self, t: float) -> list[str]:
+    def adrift_beacons(self, t: float, speed: float) -> list[str]:
         """The beacons whose ranges refused in a row say the filter is off, when there are
-        ``ADRIFT_BEACONS`` of them or more (else none); nothing forgotten."""
+        ``ADRIFT_BEACONS`` of them or more (else none); nothing forgotten. ``speed``: the
+        filter's (m/s)."""
         adrift = sorted(name for name, run in self._refusals.items()
-                        if len(run) >= ADRIFT_RUN
-                        and t - self._last_refused.get(name, -math.inf) <= ADRIFT_WINDOW
-                        and _one_way(list(run)[-ADRIFT_RUN:], self._sigma[name]))
+                        if len(run) >= ADRIFT_RUN and t - run[-1][0] <= ADRIFT_WINDOW
+                        and _one_way([y for _, y, _ in run][-ADRIFT_RUN:], self._sigma[name])
+                        and self._drifts(name, speed))
         return adrift if len(adrift) >= ADRIFT_BEACONS else []
+
+    def _drifts(self, beacon: str, speed: float) -> bool:
+        """Whether ``beacon``'s ranges refused in a row go on from its last accepted one as
+        ranges heard along a track do: each step within ``AGREEMENT`` σ plus
+        (``DRIFT_SPEED`` × ``speed`` + ``DRIFT_FLOOR``) × its time. Good ranges refused
+        against a filter carried off do; outliers jump. The accepted range counts only where
+        the filter expected it (within ``AGREEMENT`` σ): one taken far from its prediction,
+        under a wide prior at the boot, may itself be the outlier that carried the filter
+        off."""
+        steps = list(self._refusals[beacon])
+        rate = DRIFT_SPEED * speed + DRIFT_FLOOR
+        near = AGREEMENT * self._sigma[beacon]
+        accepted = self._accepted.get(beacon)
+        if accepted is not None and abs(accepted[1]) <= near:
+            steps.insert(0, accepted)
+        return not any(abs(z - z0) > near + rate * (t - t0)
+                       for (t0, _, z0), (t, _, z) in pairwise(steps))
 
     def review(self, t: float, ekf: EKF, singled_out: str | None = None) -> list[Decision]:
         """The weights brought up to date; ``newly_off`` names the beacon just found off its

@@ -23,6 +23,8 @@ those real vehicles meet:
 ``ranges_gap``         60 s without any beacon range
 ``beacon_moved``       one beacon is 5 m from its surveyed position (its ranges say so)
 ``range_outliers``     5 % of the ranges wrong by 5–50 m (multipath, a second reply)
+``ranges_long``        a fifth of the ranges 5–50 m long (a ray round an obstacle, NLOS: a
+                       longer path, never a shorter one, so every outlier has one sign)
 ``gps_glitches``       the position sensor with 2 m of noise, and 30–60 m glitches of 5 s every
                        two minutes
 ``yaw_rate_reversed``  the body velocity sensors' yaw rate of the wrong sign (a gyro mounted
@@ -247,6 +249,21 @@ def range_outliers(messages: list[Message], layout: Layout,
     return out
 
 
+LONG_SHARE = 0.2
+"""The share of the ranges ``ranges_long`` makes long."""
+
+
+def ranges_long(messages: list[Message], layout: Layout,
+                rng: np.random.Generator) -> list[Message]:
+    out = []
+    for m in messages:
+        if (_ranging(m, layout) and m.name.rpartition("_RANGE_")[1]
+                and rng.random() < LONG_SHARE):
+            m = m._replace(value=m.double + rng.uniform(5, 50))
+        out.append(m)
+    return out
+
+
 def gps_glitches(messages: list[Message], layout: Layout,
                  rng: np.random.Generator) -> list[Message]:
     t0, _ = _span(messages)
@@ -309,6 +326,7 @@ FAULTS: dict[str, FaultMaker] = {
     "ranges_gap": ranges_gap,
     "beacon_moved": beacon_moved,
     "range_outliers": range_outliers,
+    "ranges_long": ranges_long,
     "gps_glitches": gps_glitches,
     "yaw_rate_reversed": yaw_rate_reversed,
     "heading_reversed": heading_reversed,
@@ -339,7 +357,7 @@ def _applies(name: str, layout: Layout) -> bool:
         return bool(set(layout.orientation) & set(layout.body_velocity))
     if name.startswith("heading"):
         return bool(layout.orientation)
-    if name in ("ranges_gap", "range_outliers"):
+    if name in ("ranges_gap", "range_outliers", "ranges_long"):
         return bool(layout.ranging)
     if name == "beacon_moved":
         return bool(layout.ranging and layout.beacons)

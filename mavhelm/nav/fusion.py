@@ -1046,6 +1046,7 @@ class Fusion:
             ekf = self._add_speed_scale(t)
         prior = (ekf.x.item(I_X), ekf.x.item(I_Y), math.hypot(ekf.x.item(I_VX),
                                                                 ekf.x.item(I_VY)))
+        speed = prior[2]
         result = ekf.update([self._weighted(self._brought_forward(r), r.sensor.name)
                              for r in kept])
         self._note_coupling(kept)
@@ -1054,7 +1055,7 @@ class Fusion:
             used = verdict.obs
             if isinstance(used, Range) and ekf.config.learn_beacon_offsets:
                 lockout = self.beacon_watch.refused(t, used.beacon, verdict.accepted,
-                                                    verdict.innovation, used.sigma)
+                                                    verdict.innovation, used.sigma, used.z)
                 adrift = None
                 # while the LSQ disagrees its re-initialisation (spec 2.2.9) comes first,
                 # unless it is open which way the heading turns: the filter takes no heading
@@ -1062,8 +1063,8 @@ class Fusion:
                 # for came (Plaza1 from 800 s, booted under way, 2.17 m RMS)
                 if lockout is None and not verdict.accepted:
                     if not self.safety.disagreeing or self._sense_test is not None:
-                        lockout = adrift = self.beacon_watch.adrift(t)
-                    elif self.beacon_watch.adrift_beacons(t):
+                        lockout = adrift = self.beacon_watch.adrift(t, speed)
+                    elif self.beacon_watch.adrift_beacons(t, speed):
                         # awaited, the ranges still asked for the heading: with half
                         # Plaza1's ranges the six fixes took 40 s, the filter ran 97 m off
                         self._doubt_from_ranges(t)
