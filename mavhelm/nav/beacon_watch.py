@@ -203,7 +203,8 @@ class BeaconWatch:
     def refused(self, t: float, beacon: str, accepted: bool, innovation: float,
                 sigma: float, z: float = math.nan) -> Decision | None:
         """One range's fate: a decision when ``beacon`` is locked out (the owner makes the
-        filter forget what the ranges taught it). ``z``: the range measured (m)."""
+        filter forget what the ranges taught it). ``z``: the range measured (m; NaN where
+        unknown, which leaves ``_drifts`` nothing to judge)."""
         if accepted:
             self._accepted[beacon] = (t, innovation, z)
             if beacon in self._refusals:

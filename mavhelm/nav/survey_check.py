@@ -261,7 +261,7 @@ class SurveyCheck:
             kept = np.array([np.ones(len(window), dtype=bool)]
                             + [heard_from != name for name in names])
             keys = [None, *names]
-            found, solved = fit_tracks(columns, kept, first.position, now, t,
+            found, solved, _ = fit_tracks(columns, kept, first.position, now, t,
                                   np.array([shapes.get(key, NO_SHAPE) for key in keys]))
             fits.update(zip(keys, found, strict=True))
             shapes.clear()
@@ -292,7 +292,7 @@ def _suspects(fits: dict[str | None, Fit]) -> tuple[str, ...] | None:
 
 def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float],
           now: tuple[float, float], t: float, shape: np.ndarray
-          ) -> tuple[list[Fit], np.ndarray]:
+          ) -> tuple[list[Fit], np.ndarray, np.ndarray]:
     """The ranges (rows of ``columns``: range less the beacon's offset prior, its σ, the
     beacon's x, y and height above the transducer squared, the track made good since the
     window's first range)
@@ -300,7 +300,8 @@ def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float]
     shared by every beacon, from the filter's position ``start`` at the first range and the
     turn, scales and offset of ``shape``: one fit for each row of ``kept`` (which ranges it
     keeps, and its row of ``shape``), all solved together; where each puts the vehicle at
-    the track's point ``now``, time ``t``, and the parameters found."""
+    the track's point ``now``, time ``t``, the parameters found, and each fit's residuals
+    in σ (fit, range)."""
     z, sd, bx, by, bz2, ex, ey = columns.T
     kept = kept.astype(float)
     p = np.zeros((len(kept), 6))
@@ -349,4 +350,4 @@ def fit_tracks(columns: np.ndarray, kept: np.ndarray, start: tuple[float, float]
     axis = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, -1], 0.0))
     return [Fit(float(chi2[k]), t, float(p[k, 0] + stretch[k] * rx[k]),
                 float(p[k, 1] + stretch[k] * ry[k]), float(axis[k]))
-            for k in range(len(p))], p
+            for k in range(len(p))], p, residual
