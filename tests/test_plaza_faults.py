@@ -645,15 +645,10 @@ def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_t
     beacon held off its survey while three others remain."""
     from mavhelm.nav import faults
     from mavhelm.nav.filter_safety import REINITIALISED
-    from mavhelm.nav.replay import replay
 
     alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
     monkeypatch.setattr(faults, "MOVED_BY", 20.0)
-    result = replay(block, with_fault("beacon_moved", read_alog(alog), layout_of(block), 1))
-    fusion = result.navigator.fusion
-    assert fusion is not None
+    result, fusion = _replayed(mission, alog, "beacon_moved", 1)
     print(f"\nbeacon 0 20 m off, seed 1: NAV {result.accuracy()}")
     blamed = [d for d in fusion.decisions if "it is off its survey" in d.why]
     assert blamed and "beacon 0's" in blamed[0].why, result.report()
@@ -663,16 +658,25 @@ def test_a_beacon_far_off_its_survey_does_not_re_initialise_the_filter_through_t
     assert error[t > blamed[0].t + 60.0].max() < 5.0, result.report()
 
 
+def _replayed(mission: Path, alog: Path, fault: str, seed: int):
+    """Plaza1 (``alog``) replayed with ``fault`` made on it by ``mission``'s navigator: the
+    result and its fusion."""
+    from mavhelm.nav.replay import replay
+
+    block = load_mission(mission).process("pNav")
+    assert block is not None
+    result = replay(block, with_fault(fault, read_alog(alog), layout_of(block), seed))
+    assert result.navigator.fusion is not None
+    return result, result.navigator.fusion
+
+
 def _with_outliers(plaza, monkeypatch, share: float, seed: int):
     """Plaza1 replayed with ``share`` of its ranges 5-50 m out (``range_outliers``)."""
     from mavhelm.nav import faults
-    from mavhelm.nav.replay import replay
 
     alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
     monkeypatch.setattr(faults, "OUTLIER_SHARE", share)
-    return replay(block, with_fault("range_outliers", read_alog(alog), layout_of(block), seed))
+    return _replayed(mission, alog, "range_outliers", seed)[0]
 
 
 def test_range_outliers_refused_in_runs_do_not_say_the_filter_is_off(plaza,
@@ -699,14 +703,8 @@ def test_long_ranges_refused_in_runs_do_not_say_the_filter_is_off(plaza) -> None
     the truth; moved to the LSQ's fix of the same outliers, 54 m off, it ran 100 m off (13.1 m
     RMS, NEES 44). The ranges refused must go on from the beacon's last accepted one as
     ranges heard along a track do."""
-    from mavhelm.nav.replay import replay
-
     alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
-    result = replay(block, with_fault("ranges_long", read_alog(alog), layout_of(block), 3))
-    fusion = result.navigator.fusion
-    assert fusion is not None
+    result, fusion = _replayed(mission, alog, "ranges_long", 3)
     print(f"\na fifth of the ranges long, seed 3: NAV {result.accuracy()}, "
           f"NEES {result.consistency()}")
     assert not [d for d in fusion.decisions if "the filter is off" in d.why], result.report()
@@ -723,15 +721,8 @@ def test_a_heading_read_the_wrong_way_round_is_told_through_long_ranges(plaza) -
     LSQ's fixes, meanwhile the filter ran 120 m off and was re-initialised twice (12.9 m RMS,
     NEES 47). Scored on the ranges the best fit keeps, the sense is told as the question
     opens."""
-    from mavhelm.nav.replay import replay
-
     alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
-    result = replay(block, with_fault("heading_reversed+ranges_long", read_alog(alog),
-                                      layout_of(block), 1))
-    fusion = result.navigator.fusion
-    assert fusion is not None
+    result, fusion = _replayed(mission, alog, "heading_reversed+ranges_long", 1)
     print(f"\nheading reversed, a fifth of the ranges long: NAV {result.accuracy()}, "
           f"NEES {result.consistency()}")
     told = [d.t - result.start for d in fusion.decisions if "of the wrong sense" in d.why
@@ -796,15 +787,8 @@ def test_an_odometer_read_mirrored_is_righted_by_the_ranges(plaza) -> None:
     by them over and over (8.02 m RMS, NEES 47, 79 m at most, the LSQ 5.05 m). The track the
     headings dead-reckon fits the ranges only mirrored: both are now taken negated (found at
     114 s, the robot's first clear turns; 1.24 m, the first two minutes 5-25 m off)."""
-    from mavhelm.nav.replay import replay
-
     alog, mission = plaza
-    block = load_mission(mission).process("pNav")
-    assert block is not None
-    result = replay(block, with_fault("heading_reversed+yaw_rate_reversed", read_alog(alog),
-                                      layout_of(block), 1))
-    fusion = result.navigator.fusion
-    assert fusion is not None
+    result, fusion = _replayed(mission, alog, "heading_reversed+yaw_rate_reversed", 1)
     print(f"\nheading and yaw rate mirrored, seed 1: NAV {result.accuracy()}, NEES "
           f"{result.consistency()}")
     found = [d.t - result.start for d in fusion.decisions if "both are of the wrong sense" in d.why]
@@ -849,15 +833,9 @@ def test_which_of_a_heading_and_a_rate_is_reversed_is_told_through_range_outlier
     track fitted the ranges 2-2.9 times better as read than negated for a minute without
     reaching the 3 times asked: told at 123 s, while the filter took neither (2.25 m RMS).
     One of the two being known wrong, 2 times now tells it: at 65 s (0.55 m)."""
-    from mavhelm.nav.replay import replay
-
     alog, mission = plaza
-    block = load_mission(_as_defaults(mission)).process("pNav")
-    assert block is not None
-    result = replay(block, with_fault("yaw_rate_reversed+range_outliers", read_alog(alog),
-                                      layout_of(block), 2))
-    fusion = result.navigator.fusion
-    assert fusion is not None
+    result, fusion = _replayed(_as_defaults(mission), alog, "yaw_rate_reversed+range_outliers",
+                               2)
     print(f"\nrate reversed, range outliers, seed 2: NAV {result.accuracy()}")
     told = [d.t - result.start for d in fusion.decisions
             if "is the one of the wrong sense, taken negated" in d.why]

@@ -239,14 +239,8 @@ OUTLIER_SHARE = 0.05
 
 def range_outliers(messages: list[Message], layout: Layout,
                    rng: np.random.Generator) -> list[Message]:
-    out = []
-    for m in messages:
-        if (_ranging(m, layout) and m.name.rpartition("_RANGE_")[1]
-                and rng.random() < OUTLIER_SHARE):
-            m = m._replace(value=max(m.double + rng.choice([-1.0, 1.0]) * rng.uniform(5, 50),
-                                     0.5))
-        out.append(m)
-    return out
+    return _spoil_ranges(messages, layout, rng, OUTLIER_SHARE, lambda z: max(
+        z + rng.choice([-1.0, 1.0]) * rng.uniform(5, 50), 0.5))
 
 
 LONG_SHARE = 0.2
@@ -255,11 +249,17 @@ LONG_SHARE = 0.2
 
 def ranges_long(messages: list[Message], layout: Layout,
                 rng: np.random.Generator) -> list[Message]:
+    return _spoil_ranges(messages, layout, rng, LONG_SHARE, lambda z: z + rng.uniform(5, 50))
+
+
+def _spoil_ranges(messages: list[Message], layout: Layout, rng: np.random.Generator,
+                  share: float, spoiled: Callable[[float], float]) -> list[Message]:
+    """Each range (not a travel time) drawn with probability ``share`` made ``spoiled(z)``."""
     out = []
     for m in messages:
         if (_ranging(m, layout) and m.name.rpartition("_RANGE_")[1]
-                and rng.random() < LONG_SHARE):
-            m = m._replace(value=m.double + rng.uniform(5, 50))
+                and rng.random() < share):
+            m = m._replace(value=spoiled(m.double))
         out.append(m)
     return out
 
