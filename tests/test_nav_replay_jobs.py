@@ -91,3 +91,16 @@ def test_faults_only_needs_a_fault_and_a_bad_mission_is_said_as_itself(tmp_path:
     assert bad.returncode != 0
     assert "EKF_NOT_A_SETTING" in bad.stdout + bad.stderr
     assert "run failed" not in bad.stdout
+
+
+def test_fault_all_says_so_when_the_mission_declares_no_sensor_to_make_faults_on(
+        tmp_path: Path) -> None:
+    routes_only = "ProcessConfig = pNav\n{\n    X = GPS @ 2\n    Y = GPS @ 2\n}\n"
+    (tmp_path / "m.moos").write_text(routes_only)
+    _write_log(tmp_path / "run.alog", seconds=5.0)
+    done = _replay(tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "no fault of the library applies to this mission's pNav" in done.stdout
+    assert "== fault" not in done.stdout and done.stdout.count("replay took") == 1
+    (tmp_path / "m.moos").write_text(MISSION)
+    assert "no fault of the library applies" not in _replay(tmp_path, "--jobs", "1").stdout

@@ -111,7 +111,10 @@ def run(args: argparse.Namespace) -> int:
     if args.faults_only and not args.fault:
         print("mavhelm nav replay: --faults-only needs --fault", flush=True)
         return 2
-    first, *faults = _faults(args)
+    runs, note = _faults(args)
+    if note:
+        print(note, flush=True)
+    first, *faults = runs
     lines, failed = _replay_report((args, first), first=True)
     _print_run(first, lines)
     worst = int(failed)
@@ -159,17 +162,26 @@ def _replay_report(job: tuple[argparse.Namespace, str | None],
             result.failure is not None)
 
 
-def _faults(args: argparse.Namespace) -> list[str | None]:
+def _faults(args: argparse.Namespace) -> tuple[list[str | None], str]:
     """The runs asked for: the log as recorded (unless ``--faults-only``), then each fault
-    (``all``: those that apply to the mission). The first runs in this process."""
+    (``all``: those that apply to the mission). The first runs in this process. With it, what
+    to tell the user where ``all`` found no fault to make: the library makes its faults on
+    the readings of the sensors a pNav block declares (``SENSOR_*``), and a block that only
+    routes sources (``X = GPS @ 2``) declares none."""
     if not args.fault:
-        return [None]
+        return [None], ""
     names = list(dict.fromkeys(args.fault))
+    note = ""
     if "all" in names:
         mission = load_mission(args.mission)
         block = mission.process("pNav")
         layout = layout_of(block) if block is not None else None
         names = [f for f in FAULTS if layout is not None and applies(f, layout)]
+        if not names and layout is not None:
+            note = ("--fault all: no fault of the library applies to this mission's pNav: "
+                    "faults are made on the readings of the sensors it declares (SENSOR_XY, "
+                    "SENSOR_ORIENTATION, SENSOR_RANGE, SENSOR_LBL, SENSOR_BODY_VEL) and it "
+                    "declares none of these; replaying the log as recorded only")
     if args.faults_only and names:
-        return names
-    return [None, *names]
+        return names, note
+    return [None, *names], note
