@@ -617,7 +617,7 @@ def test_no_beacon_is_blamed_from_a_track_the_robot_hardly_moved_along(plaza, se
     its first 40 s (the track made good within 11 m of its start), where leaving out any one
     of four beacons fits a near point alike; beacon 5 was singled out at 52 s from windows
     of 11-24 m and kept the blame, the displaced beacon trusted: 2.47 and 2.41 m RMS, NEES 39
-    and 36. No window under ``MIN_TRACK`` is reviewed now."""
+    and 36. A window whose track stays under ``MIN_TRACK`` now names no beacon."""
     from mavhelm.nav.replay import replay
 
     alog, mission = plaza

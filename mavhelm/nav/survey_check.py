@@ -20,7 +20,8 @@ same beacon. A short window tells early; a long one where the bearings turn slow
 far from the track): the two are reviewed in turn, every ``REVIEW`` / 2 s.
 
 It needs ``MIN_BEACONS`` beacons heard in the window, each ``MIN_RANGES`` times: leaving one
-of three out leaves two, which with a free shift, turn and scale fit nearly anything.
+of three out leaves two, which with a free shift, turn and scale fit nearly anything; and a
+track made good reaching ``MIN_TRACK`` m from the window's first point.
 
 Measured on Plaza1 with one beacon 5 m off its survey, sixteen draws: the displaced beacon
 singled out every time, 128-197 s into the run (the robot stands still for its first 80 s,
@@ -105,8 +106,8 @@ MISFIT_EVERY: Final = 300.0
 MIN_BEACONS: Final = 4
 MIN_RANGES: Final = 5
 MIN_TRACK: Final = 20.0
-"""m: a window whose track made good stays within this of its first point is not reviewed
-(no vote either way). Along so short a track the bearings hardly turn, and leaving out any
+"""m: a window whose track made good stays within this of its first point is not fitted: its
+review names no beacon. Along so short a track the bearings hardly turn, and leaving out any
 one of four beacons leaves three ranges to a near point for its shift and the shared range
 scale and offset: each fit is near perfect and which is best is chance. Plaza1 with half its
 ranges and the defaults' mission, clean: beacon 1 singled out at 59-69 s from windows the
@@ -266,7 +267,7 @@ class SurveyCheck:
         columns = np.array([h.row for h in window])
         columns[:, 5:] -= first.track
         if float(np.max(np.hypot(columns[:, 5], columns[:, 6]))) < MIN_TRACK:
-            return None  # the bearings hardly turned: no evidence either way
+            return None  # the bearings hardly turned: nothing to tell
         now = (self._track[0] - first.track[0], self._track[1] - first.track[1])
         heard_from = np.array([h.beacon for h in window])
         fits = self.fits
