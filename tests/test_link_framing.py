@@ -3,11 +3,14 @@ BAD_DATA, whatever the bytes and however they are split across reads."""
 
 from __future__ import annotations
 
+import struct
+from collections.abc import Callable
+
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavhelm.companion.link import Skimmed, SkimmingParser
+from mavhelm.companion.link import _PLAIN, Skimmed, SkimmingParser
 
 _ENCODER = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
 FRAMES = [bytes(m.pack(_ENCODER)) for m in (
@@ -107,3 +110,76 @@ def test_a_partial_frame_waits_for_its_end() -> None:
     parser.decoded = WANTED
     (skimmed,) = parser.parse_buffer(FRAMES[3])
     assert isinstance(skimmed, Skimmed) and bytes(skimmed.get_msgbuf()) == FRAMES[3]
+
+
+PLAIN_IDS = sorted(_PLAIN)
+
+
+def _frame(msgid: int, payload: bytes, seq: int, src: tuple[int, int], compat: int,
+           crc_extra: int) -> bytearray:
+    """A MAVLink 2 frame as an autopilot sends it, whatever its payload's bytes."""
+    body = bytes([len(payload), 0, compat, seq, *src, msgid & 0xFF, msgid >> 8 & 0xFF,
+                  msgid >> 16]) + payload
+    crc = mavlink.x25crc(body + bytes([crc_extra])).crc
+    return bytearray(b"\xfd" + body + bytes([crc & 0xFF, crc >> 8]))
+
+
+def _as_decoded(make: Callable[[], mavlink.MAVLink_message]) -> object:
+    """Everything a reader can see of a decoded message (floats by their bits: NaN is NaN),
+    or the error pymavlink raised."""
+    try:
+        msg = make()
+    except mavlink.MAVError as exc:
+        return ("MAVError", str(exc))
+    fields = {k: struct.pack("<d", v) if isinstance(v, float) else v
+              for k, v in vars(msg).items() if k != "_header"}
+    return type(msg), fields, vars(msg.get_header()), msg.get_fieldnames(), msg.get_signed()
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.sampled_from(PLAIN_IDS), st.data(), st.integers(0, 255), st.integers(1, 255),
+       st.integers(0, 255), st.integers(0, 255), st.integers(0, 3))
+def test_a_fixed_field_message_is_decoded_as_pymavlink_decodes_it(
+        msgid, data, seq, system, component, compat, damage) -> None:
+    """Any payload (random bytes: NaNs, extremes; shorter than the message, as MAVLink 2
+    sends it with its trailing zeros cut, or longer, from a newer dialect), a damaged CRC or
+    length: the link's decoder and pymavlink's give the same message, or the same error."""
+    cls = mavlink.mavlink_map[msgid]
+    size = cls.unpacker.size
+    payload = data.draw(st.binary(min_size=0, max_size=min(size + 8, 255)))
+    frame = _frame(msgid, payload, seq, (system, component), compat, cls.crc_extra)
+    if damage == 1:
+        frame[-1] ^= 0x01
+    elif damage == 2 and frame[1]:
+        frame[1] -= 1
+    ours = SkimmingParser(None)
+    assert _as_decoded(lambda: ours.decode(bytearray(frame))) == \
+        _as_decoded(lambda: mavlink.MAVLink(None).decode(bytearray(frame)))
+
+
+def test_the_fast_decode_is_the_one_taken_and_signed_links_keep_pymavlinks() -> None:
+    """The autopilot's streamed messages take the fixed-field path (a change to the dialect
+    that made them leave it would go unnoticed otherwise); a parser with a signing key
+    leaves every frame to pymavlink, which checks the signature."""
+    for name in ("HEARTBEAT", "ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT", "RC_CHANNELS",
+                 "SYS_STATUS", "SIMSTATE", "EKF_STATUS_REPORT", "VFR_HUD"):
+        assert getattr(mavlink, f"MAVLINK_MSG_ID_{name}") in _PLAIN, name
+    frame = bytearray(FRAMES[1])
+    calls = []
+    original = mavlink.MAVLink.decode
+
+    def stock(self, msgbuf):  # type: ignore[no-untyped-def]
+        calls.append(bytes(msgbuf))
+        return original(self, msgbuf)
+
+    mavlink.MAVLink.decode = stock  # type: ignore[method-assign]
+    try:
+        assert SkimmingParser(None).decode(bytearray(frame)).get_type() == "ATTITUDE"
+        assert calls == []
+        signing = SkimmingParser(None)
+        signing.signing.secret_key = bytes(32)
+        signing.signing.allow_unsigned_callback = lambda *_: True
+        assert signing.decode(bytearray(frame)).get_type() == "ATTITUDE"
+        assert calls == [bytes(frame)]
+    finally:
+        mavlink.MAVLink.decode = original  # type: ignore[method-assign]

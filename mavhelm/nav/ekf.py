@@ -935,20 +935,14 @@ class EKF:
         PHt = dot(self.kf.P, rows.H.T)
         S = dot(rows.H, PHt)
         S.reshape(-1)[::len(y) + 1] += rows.r  # + R, on the diagonal
-        d2: list[tuple[float, int]] = []
-        for k in range(len(observations)):
-            a, b = first[k], first[k + 1]
-            if b - a == 1:  # in floats: numpy's scalar arithmetic, bit for bit, faster
-                d2.append((residuals[a] * residuals[a] / S.item(a, a), 1))
-            else:
-                ya = y[a:b]
-                d2.append((float(dot(ya, _solve(S[a:b, a:b], ya))), b - a))
+        d2 = [_block_d2(S, y, residuals, first[k], first[k + 1])
+              for k in range(len(observations))]
         gates = self._gates
         alive = [k for k, (d, dof) in enumerate(d2)
                  if d <= (gates[dof] if dof in gates else self._gate(dof))]
         S_inv = None
         if len(alive) > 1:
-            alive, S_inv = self._joint_test(alive, first, y, S)
+            alive, S_inv = self._joint_test(alive, first, y, S, residuals)
         if alive:
             idx = None if len(alive) == len(observations) else _rows_of(alive, first)
             if idx is not None:
@@ -959,8 +953,8 @@ class EKF:
         return UpdateResult([Verdict(obs, d2[k][0], d2[k][1], k in alive, residuals[first[k]])
                              for k, obs in enumerate(observations)])
 
-    def _joint_test(self, alive: list[int], first: list[int], y: np.ndarray, S: np.ndarray
-                    ) -> tuple[list[int], np.ndarray | None]:
+    def _joint_test(self, alive: list[int], first: list[int], y: np.ndarray, S: np.ndarray,
+                    residuals: list[float]) -> tuple[list[int], np.ndarray | None]:
         """The χ² test of the observations ``alive`` together (each passed alone): while they
         fail it, drop the one whose absence leaves the most consistent set (the largest χ²
         tail probability, in logs, which do not saturate as the CDF does). Returns those kept
@@ -971,11 +965,7 @@ class EKF:
         def d2_of(which: list[int]) -> tuple[float, int]:
             nonlocal full_inverse
             if len(which) == 1:
-                a, b = first[which[0]], first[which[0] + 1]
-                if b - a == 1:
-                    return float(y[a] * y[a] / S[a, a]), 1
-                ya = y[a:b]
-                return float(np.dot(ya, _solve(S[a:b, a:b], ya))), int(b - a)
+                return _block_d2(S, y, residuals, first[which[0]], first[which[0] + 1])
             if len(which) == everything:
                 full_inverse = _inv(S)
                 return float(np.dot(np.dot(y, full_inverse), y)), len(y)
@@ -1516,6 +1506,49 @@ def _column(a: np.ndarray) -> list[float]:
 def _root(variance: float) -> float:
     """A 1-σ from a variance that rounding may have taken a hair below zero."""
     return math.sqrt(max(variance, 0.0))
+
+
+def _block_d2(S: np.ndarray, y: np.ndarray, residuals: list[float], a: int, b: int  # noqa: N803
+              ) -> tuple[float, int]:
+    """yᵀ S⁻¹ y of one observation's rows ``a:b`` (its χ², and its degrees of freedom).
+
+    An observation has one to three rows; for so few, Cholesky in floats costs a fraction of
+    a LAPACK solve's call and wrapping (the gate of every observation, every slice). The same
+    value to rounding; a block that is not positive definite goes to LAPACK, which decides."""
+    n = b - a
+    if n == 1:
+        return residuals[a] * residuals[a] / S.item(a, a), 1
+    if n <= 3:
+        low: list[list[float]] = []
+        z: list[float] = []
+        total = 0.0
+        for i in range(n):
+            row: list[float] = []
+            for j in range(i + 1):
+                s = S.item(a + i, a + j)
+                other = row if i == j else low[j]
+                for k in range(j):
+                    s -= row[k] * other[k]
+                if i == j:
+                    if not s > 0.0:
+                        break
+                    row.append(math.sqrt(s))
+                else:
+                    row.append(s / low[j][j])
+            else:
+                zi = residuals[a + i]
+                for k in range(i):
+                    zi -= row[k] * z[k]
+                zi /= row[i]
+                z.append(zi)
+                total += zi * zi
+                low.append(row)
+                continue
+            break
+        else:
+            return total, n
+    ya = y[a:b]
+    return float(np.dot(ya, _solve(S[a:b, a:b], ya))), n
 
 
 def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -333,9 +333,12 @@ def on_param_value(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> N
             bridge.gate.gcs_sysid = int(msg.param_value)
 
 
+_RC_FIELDS = tuple(f"chan{i}_raw" for i in range(1, 19))
+
+
 def on_rc_channels(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
     count = max(0, min(18, int(msg.chancount)))
-    bridge.state.view.rc = [int(getattr(msg, f"chan{i}_raw")) for i in range(1, count + 1)]
+    bridge.state.view.rc = [int(getattr(msg, name)) for name in _RC_FIELDS[:count]]
 
 
 def on_command_ack(bridge: MavlinkBridge, msg: Msg, now: float, post: Post) -> None:
