@@ -299,7 +299,7 @@ MAGICS = (bytes([V1]), bytes([V2]))
 
 
 class _Plain(NamedTuple):
-    """What decoding a message of fixed-size fields needs, read from pymavlink's class."""
+    """What decoding a message of numbers needs, read from pymavlink's class."""
 
     cls: type[mavlink.MAVLink_message]
     unpacker: struct.Struct
@@ -312,16 +312,31 @@ def _as_it_is(fields: tuple[object, ...]) -> tuple[object, ...]:
     return fields
 
 
+def _with_arrays(spans: list[tuple[int, int]]
+                 ) -> Callable[[tuple[object, ...]], tuple[object, ...]]:
+    """Fields in declaration order from an unpacked payload with arrays: each field's
+    (first value, count), an array a list, as pymavlink gives it."""
+    def order(values: tuple[object, ...]) -> tuple[object, ...]:
+        return tuple(values[tip] if n == 1 else list(values[tip:tip + n]) for tip, n in spans)
+    return order
+
+
 def _plain_messages() -> dict[int, _Plain]:
-    """The dialect's messages without arrays or strings, by id: those pymavlink's decode
-    unpacks with no per-field work (what the autopilot streams: HEARTBEAT, ATTITUDE,
-    GPS_RAW_INT, GLOBAL_POSITION_INT, RC_CHANNELS, SYS_STATUS, ...)."""
+    """The dialect's messages of numbers (no strings), by id: those pymavlink's decode
+    unpacks without per-field work beyond ordering them (what the autopilot streams:
+    HEARTBEAT, ATTITUDE, GPS_RAW_INT, GLOBAL_POSITION_INT, RC_CHANNELS, DISTANCE_SENSOR, ...)."""
     plain = {}
     for msgid, cls in mavlink.mavlink_map.items():
         fmt = cls.unpacker.format
-        if any(n != 1 for n in cls.lengths) or "s" in fmt or "c" in fmt:
+        if "s" in fmt or "c" in fmt:
             continue
-        order = operator.itemgetter(*cls.orders) if len(cls.orders) > 1 else _as_it_is
+        lengths = cls.lengths
+        if any(n != 1 for n in lengths):
+            order = _with_arrays([(sum(lengths[:i]), lengths[i]) for i in cls.orders])
+        elif len(cls.orders) > 1:
+            order = operator.itemgetter(*cls.orders)
+        else:
+            order = _as_it_is
         plain[msgid] = _Plain(cls, cls.unpacker, order, bytes([cls.crc_extra]),
                               cls.unpacker.size)
     return plain
@@ -347,7 +362,7 @@ class SkimmingParser(mavlink.MAVLink):
     no frame is one BAD_DATA, a frame with unknown incompatibility flags or a bad CRC is one
     BAD_DATA and is skipped whole.
 
-    An unsigned MAVLink 2 frame of a message with fixed-size fields (``_PLAIN``) on a link
+    An unsigned MAVLink 2 frame of a message of numbers (``_PLAIN``) on a link
     without signing is decoded here, as pymavlink's ``decode`` does it (the length and the
     CRC with the message's extra byte checked, the payload zero-extended or cut to the
     dialect's size, the fields put in declaration order, the message built by its own class
@@ -358,6 +373,10 @@ class SkimmingParser(mavlink.MAVLink):
     """
 
     decoded: frozenset[int] | None = None
+    keep_skimmed = True
+    """Whether ``parse_buffer`` returns the unread frames (as ``Skimmed``, for a recorder)
+    or only counts them in ``skimmed``."""
+    skimmed = 0
 
     def decode(self, msgbuf: bytearray) -> mavlink.MAVLink_message:
         wanted = self.decoded
@@ -386,6 +405,9 @@ class SkimmingParser(mavlink.MAVLink):
         self.total_bytes_received += len(s)
         out: list[mavlink.MAVLink_message] = []
         at, end = 0, len(buf)
+        wanted = self.decoded
+        dropping = wanted is not None and not self.keep_skimmed
+        counted = 0
         while at < end:
             magic = buf[at]
             if magic != V2 and magic != V1:
@@ -404,6 +426,13 @@ class SkimmingParser(mavlink.MAVLink):
                 size += mavlink.MAVLINK_SIGNATURE_BLOCK_LEN
             if end - at < size:
                 break
+            if dropping and not flags & ~SIGNED:
+                msgid = buf[at + 7] | buf[at + 8] << 8 | buf[at + 9] << 16 if magic == V2 \
+                    else buf[at + 5]
+                if msgid not in wanted:  # type: ignore[operator]
+                    at += size
+                    counted += 1
+                    continue
             frame = buf[at:at + size]
             at += size
             try:
@@ -415,14 +444,15 @@ class SkimmingParser(mavlink.MAVLink):
                 msg = mavlink.MAVLink_bad_data(frame, exc.message)
                 self.total_receive_errors += 1
             out.append(msg)
-        self.total_packets_received += len(out)
+        self.total_packets_received += len(out) + counted
+        self.skimmed += counted
         del buf[:at]
         return out
 
 
 def _decode_plain(msgbuf: bytearray, msgid: int, plain: _Plain
                   ) -> mavlink.MAVLink_message | None:
-    """An unsigned MAVLink 2 frame of a fixed-field message decoded as pymavlink does; None
+    """An unsigned MAVLink 2 frame of a message of numbers decoded as pymavlink does; None
     when its length or CRC is wrong (pymavlink then says why)."""
     mlen = msgbuf[1]
     if mlen != len(msgbuf) - 12:
@@ -559,6 +589,8 @@ class AutopilotLink:
             data = bytes(view[dropped:size])
         else:
             data = bytes(view[:size])
+        self.mav.keep_skimmed = self.recorder is not None
+        skimmed = self.mav.skimmed
         try:
             kept.extend(self.mav.parse_buffer(data))
         except mavlink.MAVError as exc:
@@ -567,7 +599,8 @@ class AutopilotLink:
             for msg in kept:
                 if msg.get_type() != "BAD_DATA":
                     self.recorder(bytes(msg.get_msgbuf()))
-        if self.mav.decoded is not None:
+        self.stats.skimmed += self.mav.skimmed - skimmed
+        if self.mav.decoded is not None and self.mav.keep_skimmed:
             read = [msg for msg in kept if not isinstance(msg, Skimmed)]
             self.stats.skimmed += len(kept) - len(read)
             return read

@@ -482,6 +482,8 @@ def handle(bridge: MavlinkBridge, msg: Msg, now: float) -> None:
     if handler is None:
         return
 
+    notify, source = bridge.bus.notify, bridge.input.name
+
     def post(name: str, value: float | str) -> None:
-        bridge.input.notify(name, value, stamp)
+        notify(name, value, source, stamp)
     handler(bridge, msg, now, post)
