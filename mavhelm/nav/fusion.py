@@ -10,7 +10,7 @@
   ``EKF_LAG`` to the age of the oldest data worth using (LBL replies: the listen window).
 - **Fixed observations** (spec 2.2.8) are added once per tick at the filter's time.
 - **LSQ** (spec 2.2.9): ranges also feed the least-squares filter. Its fixes boot the EKF when
-  no start was given (a repeatable stream of ``BOOT_FIXES``), re-initialise it after a
+  no start was given (a repeatable stream, :mod:`mavhelm.nav.boot_stream`), re-initialise it after a
   sustained disagreement, and prove observability: no fix for ``lsq_timeout`` seconds is a
   navigation failure. With no beacons, the first XY fix boots the EKF instead.
 - **Channel rejection** (spec 2.2.6, ``LSQ_REJECTION``): a ranging sensor's channels are
@@ -35,6 +35,7 @@ import numpy as np
 
 from mavhelm.nav.alignment import MAX_SPREAD, MotionAlignment, Sense
 from mavhelm.nav.beacon_watch import BeaconWatch
+from mavhelm.nav.boot_stream import BootStream
 from mavhelm.nav.chi_square import chi2_ppf
 from mavhelm.nav.ekf import (
     ALONG_TRACK,
@@ -113,11 +114,6 @@ from mavhelm.nav.settings import LSQ as LSQ_SETTING
 from mavhelm.nav.stuck_heading import StuckHeading
 from mavhelm.nav.survey_check import Fit, SurveyCheck
 
-BOOT_FIXES = 3
-"""LSQ fixes in a row, each within ``BOOT_AGREEMENT`` of the one before, that boot the EKF
-(spec 2.2.9: "once a stable/repeatable stream of solutions begins to flow")."""
-BOOT_AGREEMENT = 10.0
-"""m: how close consecutive boot fixes must be (a boat moves a few metres between fixes)."""
 BOOT_SIGMA = 5.0
 """m: the least 1-σ given to an LSQ fix that boots or resets the EKF. A fix's formal σ only
 counts the ranges' noise; their unknown offsets and scale (the EKF's hidden states, not yet
@@ -373,7 +369,7 @@ class Fusion:
         self.boot_fix: Fix | None = None
         self._queue: list[tuple[float, int, Reading]] = []
         self._seq = itertools.count()
-        self._stream: list[Fix] = []
+        self._stream = BootStream()
         self._last_yaw: float | None = None
         self._heading_sensor: str | None = None
         """The sensor of the latest heading reading (``_last_yaw``)."""
@@ -1391,14 +1387,11 @@ class Fusion:
                 return
         if not self.config.beacons:
             return
-        for fix in fixes:
-            if self._stream and math.hypot(fix.x - self._stream[-1].x,
-                                           fix.y - self._stream[-1].y) > BOOT_AGREEMENT:
-                self._stream.clear()
-            self._stream.append(fix)
-        if len(self._stream) < BOOT_FIXES:
+        for each in fixes:
+            self._stream.add(each)
+        fix = self._stream.ready
+        if fix is None:
             return
-        fix = self._stream[-1]
         beacons = list(self.config.beacons)
         if self.lsq is not None and self.lsq.estimate_offset:
             beacons = [Beacon(b.name, b.x, b.y, b.z, b.offset + fix.offset, b.turnaround)
