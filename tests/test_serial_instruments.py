@@ -808,3 +808,38 @@ def test_mavhelm_sim_sensors_read_by_the_instruments(tmp_path) -> None:
     assert heading.stats["sentences"] > 10 and heading.dropped >= 3, heading.stats
     assert values("HDG_DROPPED")[-1] == heading.dropped
     assert sum(a.dropped for a in apps if a is not heading) == 0, [a.stats for a in apps]
+
+
+def test_a_port_read_whole_is_not_asked_again_in_the_tick() -> None:
+    """pyserial reports what the port holds; a read that took it all ends the tick's reading
+    (a second ask is a system call that answers nothing, two instruments every tick), and
+    nothing waiting is left behind."""
+    pty = Pty()
+    clock = SimClock(T0)
+    bus = Bus(clock)
+    app = SerialInstrument.from_block(bus, block(("Name", "D"), ("Port", pty.path),
+                                                 ("Sentences", "HDT")), ORIGIN)
+    try:
+        app.iterate(clock.now())
+        assert app.is_open
+        transport = app.transport
+        calls = []
+        read_into = transport.read_into
+
+        def counted(buffer: memoryview) -> int:
+            calls.append(read_into(buffer))
+            return calls[-1]
+
+        transport.read_into = counted  # type: ignore[method-assign]
+        written = pty.write(*[nmea.hdt(float(k)) for k in range(5)])
+        deadline = time.monotonic() + 3.0
+        while transport.port.in_waiting < written:  # type: ignore[attr-defined]
+            assert time.monotonic() < deadline, "the pty never passed the lines on"
+            time.sleep(0.01)
+        clock.advance(0.1)
+        app.iterate(clock.now())
+        assert len(calls) == 1 and calls[0] > 0, calls
+        assert bus.latest("D_HEADING").value == 4.0
+    finally:
+        app.close()
+        pty.close()

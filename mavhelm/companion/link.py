@@ -210,10 +210,17 @@ class SerialTransport:
     def ready(self) -> bool:
         return self.port is not None
 
+    drained = False
+    """Whether the last ``read_into`` took everything the port held (a reader need not ask
+    again this tick: one system call fewer)."""
+
     def read_into(self, buffer: memoryview) -> int:
         assert self.port is not None
+        self.drained = False
         try:
-            waiting = min(len(buffer), self.port.in_waiting)
+            held = self.port.in_waiting
+            waiting = min(len(buffer), held)
+            self.drained = waiting == held
             if not waiting:
                 return 0
             # pyserial opened the port non-blocking; one read(2) of what the kernel holds,
@@ -569,7 +576,8 @@ class AutopilotLink:
                 room = len(view) - size
                 n = self.transport.read_into(view[size:])
                 size += n
-                if not n or (n < room and self._socket):
+                drained = getattr(self.transport, "drained", False)  # a serial port says so
+                if not n or (n < room and self._socket) or drained:
                     break
         except OSError as exc:
             self._fail(now, exc.strerror or str(exc))

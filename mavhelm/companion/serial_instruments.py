@@ -419,15 +419,19 @@ class SerialInstrument(App):
         self._backoff.failed(now)
 
     def _read(self, now: float) -> bytes:
-        """Everything waiting, up to DRAIN_CAP bytes; never blocks."""
+        """Everything waiting, up to DRAIN_CAP bytes; never blocks (a port that says it
+        gave all it held is not asked again)."""
         view = memoryview(self._buffer)
         got = 0
+        transport = self.transport
         try:
             while got < DRAIN_CAP:
-                n = self.transport.read_into(view[got:])
+                n = transport.read_into(view[got:])
                 if n <= 0:
                     break
                 got += n
+                if getattr(transport, "drained", False):
+                    break
         except OSError as exc:
             self._fail(now, exc)
         return bytes(view[:got])
