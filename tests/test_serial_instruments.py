@@ -693,15 +693,21 @@ def test_a_device_behind_a_symlink_vanishes_and_returns(tmp_path) -> None:
             second.close()
 
 
-def test_a_flooded_pty_never_holds_up_the_tick() -> None:
-    pty = Pty()
+def _heading_on(pty: Pty, name: str) -> tuple[SimClock, Bus, SerialInstrument]:
+    """An HDT instrument called ``name`` reading ``pty``, opened by its first tick."""
     clock = SimClock(T0)
     bus = Bus(clock)
-    app = SerialInstrument.from_block(bus, block(("Name", "F"), ("Port", pty.path),
+    app = SerialInstrument.from_block(bus, block(("Name", name), ("Port", pty.path),
                                                  ("Sentences", "HDT")), ORIGIN)
+    app.iterate(clock.now())
+    assert app.is_open
+    return clock, bus, app
+
+
+def test_a_flooded_pty_never_holds_up_the_tick() -> None:
+    pty = Pty()
+    clock, bus, app = _heading_on(pty, "F")
     try:
-        app.iterate(clock.now())
-        assert app.is_open
         written = 0
         k = 0
         for _ in range(200):  # fill the kernel's buffer: as much as the pty takes
@@ -815,13 +821,8 @@ def test_a_port_read_whole_is_not_asked_again_in_the_tick() -> None:
     (a second ask is a system call that answers nothing, two instruments every tick), and
     nothing waiting is left behind."""
     pty = Pty()
-    clock = SimClock(T0)
-    bus = Bus(clock)
-    app = SerialInstrument.from_block(bus, block(("Name", "D"), ("Port", pty.path),
-                                                 ("Sentences", "HDT")), ORIGIN)
+    clock, bus, app = _heading_on(pty, "D")
     try:
-        app.iterate(clock.now())
-        assert app.is_open
         transport = app.transport
         calls = []
         read_into = transport.read_into
