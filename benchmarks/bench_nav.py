@@ -135,6 +135,18 @@ the bit (Plaza1 tracks and covariances compared).
   7-state filter of this tick was no faster in the tick (predict/update ratio unchanged),
   so the cold-cache cost is not numpy's alone; the filter stays on numpy, where the 12-state
   figure above meets its 50 µs.
+- 2026-12-05 (afternoon): where the slowest 1 % of ticks go, per-tick minimum of three runs
+  by tick class: the autopilot's 1 Hz burst tick (23 frames, 7 decoded: pymavlink's decode
+  8–21 µs each there against 3–5 µs in a loop) 811 µs median against 693 µs for the other
+  GPS ticks, iMAVLink 214 against 108 µs; 56 of the 61 slowest ticks were burst ticks. The
+  link now decodes the messages of numbers itself, pymavlink's way (property-tested against
+  it field for field), drops unread frames while framing when no .tlog records them, and a
+  serial port read whole is not asked again; the EKF's gate takes a 2–3-row χ² by Cholesky
+  in floats. Interleaved with the code of the morning (three runs each, quiet machine): the
+  work's p99 874/878/887 → 849/868/850 µs, the median of the runs' p99 943/963/1027 →
+  928/1049/916 µs. Most of what sets that p99 is left as it was: the runs' p99 move by
+  ±10 % between two runs a minute apart on the same code, in clusters of slow ticks (one run
+  had 50 ticks in a row 2–3× their work) that are this VM's, not the process's.
 """
 
 from __future__ import annotations
