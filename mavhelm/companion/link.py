@@ -16,7 +16,10 @@ at 10 Hz must never wait on a socket. Here
 - only the messages the reader reads are decoded (``decode_only``): pymavlink's decode costs
   several microseconds a message, and an ArduPilot link's default streams carry a dozen a
   second the companion never reads (RAW_IMU, AHRS, MEMINFO, ...); the others are recorded whole
-  in the ``.tlog`` and counted, not unpacked;
+  in the ``.tlog`` and counted, not unpacked (nor made objects, when nothing records them);
+- an unsigned frame of a message of numbers (what the autopilot streams) is decoded by the
+  link, pymavlink's way but without its generic path (``SkimmingParser``), at under half
+  the cost; signed links and every other message keep pymavlink's decode;
 - what happens is said once in ``events`` (for the console and the bus), never printed.
 """
 
