@@ -40,7 +40,7 @@ class BootStream:
         self.stray: Fix | None = None
         """A fix that did not agree with the stream, held aside for one fix."""
         self.strays = 0
-        """Fixes dropped as strays (for the log)."""
+        """Fixes set aside as strays (the boot's decision says how many)."""
 
     def add(self, fix: Fix) -> None:
         if not self.stream or self._near(fix, self.stream[-1]):

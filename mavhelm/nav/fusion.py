@@ -1399,8 +1399,10 @@ class Fusion:
         self.ekf = EKF(t, fix.x, fix.y, yaw, beacons=beacons, config=self.ekf_config,
                        sigma_xy=max(fix.sigma, fix.rms, BOOT_SIGMA), sigma_yaw=sigma_yaw)
         self.boot_fix = fix
+        strays = self._stream.strays
         self._decide(Decision(t, BOOTED, f"EKF booted from the LSQ at ({fix.x:.1f}, "
-                              f"{fix.y:.1f})"))
+                              f"{fix.y:.1f})" + (f", {strays} stray fix{'es' * (strays > 1)} "
+                                                 "off the stream set aside" if strays else "")))
         self._doubt_from_ranges(t, math.inf)
 
     def _check_lsq(self, horizon: float) -> None:
