@@ -144,7 +144,8 @@ the bit (Plaza1 tracks and covariances compared).
   serial port read whole is not asked again; the EKF's gate takes a 2–3-row χ² by Cholesky
   in floats. Interleaved with the code of the morning (three runs each, quiet machine): the
   work's p99 874/878/887 → 849/868/850 µs, the median of the runs' p99 943/963/1027 →
-  928/1049/916 µs. Most of what sets that p99 is left as it was: the runs' p99 move by
+  928/1049/916 µs; an hour later, the host faster, 828/807 → 776/751 µs and 878/868 →
+  854/828 µs. Most of what sets that p99 is left as it was: the runs' p99 move by
   ±10 % between two runs a minute apart on the same code, in clusters of slow ticks (one run
   had 50 ticks in a row 2–3× their work) that are this VM's, not the process's.
 """
