@@ -146,8 +146,9 @@ the bit (Plaza1 tracks and covariances compared).
   work's p99 874/878/887 → 849/868/850 µs, the median of the runs' p99 943/963/1027 →
   928/1049/916 µs; an hour later, the host faster, 828/807 → 776/751 µs and 878/868 →
   854/828 µs. Most of what sets that p99 is left as it was: the runs' p99 move by
-  ±10 % between two runs a minute apart on the same code, in clusters of slow ticks (one run
-  had 50 ticks in a row 2–3× their work) that are this VM's, not the process's.
+  ±10 % between two runs a minute apart on the same code, in clusters of slow ticks (in one
+  run 34 of the 51 ticks 599–649 each took over 150 µs more than the same tick's least of
+  the three runs) that are this VM's, not the process's.
 """
 
 from __future__ import annotations

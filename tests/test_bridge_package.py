@@ -115,8 +115,9 @@ def test_send_tunnel_refuses_what_mavlink_cannot_carry(payload_type, payload, ta
 
 
 PYMAVLINKS_OWN = {("link.py", "_decode_plain")}
-"""Functions that stand in for pymavlink's own code: the link's fixed-field decoder fills in
-a message's frame fields (``_header``, ``_msgbuf``, ...) as pymavlink's ``decode`` does."""
+"""Functions that stand in for pymavlink's own code: the link's decoder of messages of numbers
+fills in a message's frame fields (``_header``, ``_msgbuf``, ...) as pymavlink's ``decode``
+does."""
 
 
 def _private_reads(path: Path) -> list[str]:
