@@ -154,9 +154,11 @@ class MotionAlignment:
         filter's heading over it, then of the filter's heading error (the two's difference);
         their sums kept as runs come and go."""
         self._sums: tuple[float, ...] = (0.0,) * 6
-        self._courses: deque[tuple[float, float, float]] = deque()
-        """(t, course made good, the sensor's mean raw reading) of each straight run: which
-        way round the sensor turns (:meth:`sense`)."""
+        self._courses: deque[tuple[float, ...]] = deque()
+        """(t, sine, cosine) of the sensor's mean raw reading less the course made good over
+        each straight run, then of the reading negated less the course: which way round the
+        sensor turns (:meth:`sense`); their sums kept as runs come and go, as the runs'."""
+        self._course_sums: tuple[float, ...] = (0.0,) * 4
         self._velocity = (0.0, 0.0)
         self._bias = 0.0
         """The bias the filter held for the latest reading."""
@@ -173,6 +175,7 @@ class MotionAlignment:
         self._runs.clear()
         self._courses.clear()
         self._sums = (0.0,) * 6
+        self._course_sums = (0.0,) * 4
         self._off = None
         self._estimate, self._fresh = None, True
 
@@ -230,7 +233,9 @@ class MotionAlignment:
             self._fresh = False
         courses = self._courses
         while courses and courses[0][0] < t - WINDOW:
-            courses.popleft()
+            _, *old = courses.popleft()
+            self._course_sums = (tuple(a - b for a, b in zip(self._course_sums, old, strict=True))
+                                 if courses else (0.0,) * 4)
         start = next((f for f in reversed(fixes) if math.hypot(x - f[1], y - f[2]) >= RUN), None)
         fixes.append((t, x, y))
         if start is None or start[0] >= t:
@@ -245,15 +250,27 @@ class MotionAlignment:
         readings = [h for h in _since(self._headings, t0) if h[0] <= t]
         if len(readings) < 2:
             return
-        mean = math.atan2(sum(h[1] for h in readings), sum(h[2] for h in readings))
+        # the six sums in one pass over the run's readings
+        s1 = c1 = s2 = c2 = s3 = c3 = 0.0
+        for _, a, b, c, d, e, f in readings:
+            s1 += a
+            c1 += b
+            s2 += c
+            c2 += d
+            s3 += e
+            c3 += f
+        mean = math.atan2(s1, c1)
         sm, cm = math.sin(mean), math.cos(mean)
         if min(h[2] * cm + h[1] * sm for h in readings) < STRAIGHT:  # one strays > MAX_TURN
             return
         course = course_yaw(dx, dy)
-        courses.append((t, course, math.atan2(sum(h[5] for h in readings),
-                                              sum(h[6] for h in readings))))
+        raw = math.atan2(s3, c3)
+        offsets = (math.sin(raw - course), math.cos(raw - course),
+                   math.sin(-raw - course), math.cos(-raw - course))
+        courses.append((t, *offsets))
+        self._course_sums = tuple(a + b for a, b in zip(self._course_sums, offsets, strict=True))
         correction = mean - course
-        stale = math.atan2(sum(h[3] for h in readings), sum(h[4] for h in readings))
+        stale = math.atan2(s2, c2)
         run = (math.sin(correction), math.cos(correction), math.sin(stale), math.cos(stale),
                math.sin(correction - stale), math.cos(correction - stale))
         runs.append((t, *run))
@@ -314,9 +331,8 @@ class MotionAlignment:
     def _raw_offset(self, sign: float) -> tuple[float, float]:
         """The circular mean and spread of the sensor's mean raw reading (negated where
         ``sign`` is −1: read the wrong way round) less the course, over the straight runs."""
-        offsets = [sign * raw - course for _, course, raw in self._courses]
-        return _circular(sum(map(math.sin, offsets)), sum(map(math.cos, offsets)),
-                         len(offsets))
+        sums = self._course_sums[:2] if sign > 0 else self._course_sums[2:]
+        return _circular(*sums, len(self._courses))
 
     def sense(self) -> Sense | None:
         """Which way round the sensor turns, from the window's straight runs: read as it is,
