@@ -331,8 +331,8 @@ class MotionAlignment:
     def _raw_offset(self, sign: float) -> tuple[float, float]:
         """The circular mean and spread of the sensor's mean raw reading (negated where
         ``sign`` is −1: read the wrong way round) less the course, over the straight runs."""
-        sums = self._course_sums[:2] if sign > 0 else self._course_sums[2:]
-        return _circular(*sums, len(self._courses))
+        sines, cosines = (self._course_sums[:2] if sign > 0 else self._course_sums[2:])
+        return _circular(sines, cosines, len(self._courses))
 
     def sense(self) -> Sense | None:
         """Which way round the sensor turns, from the window's straight runs: read as it is,
