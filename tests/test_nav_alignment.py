@@ -4,6 +4,7 @@ crabbing give none."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 
@@ -267,3 +268,21 @@ def test_ten_minutes_of_runs_come_and_go_leaving_what_the_last_minute_alone_says
     if found is not None and found_alone is not None:
         assert found.correction == pytest.approx(found_alone.correction, abs=1e-9)
         assert found.spread == pytest.approx(found_alone.spread, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_largest_gap_between_runs_is_kept_as_runs_come_and_go(seed: int) -> None:
+    """Legs driven with silences of 0-40 s (no fixes) between them for ten minutes: after
+    every leg, the largest gap the window's runs leave (what ``MAX_GAP`` judges) is the one
+    kept incrementally."""
+    rng = random.Random(seed)
+    a = MotionAlignment()
+    t, checked = 0.0, 0
+    while t < 600.0:
+        heading = rng.uniform(0.0, 360.0)
+        t = _straight(a, heading, 30.0, rng.uniform(5.0, 40.0), t0=t) + rng.uniform(0.0, 40.0)
+        times = [run[0] for run in a._runs]
+        if len(times) > 1:
+            assert a._gaps[0][1] == max(b - p for p, b in itertools.pairwise(times))
+            checked += 1
+    assert checked > 5

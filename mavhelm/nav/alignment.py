@@ -154,6 +154,9 @@ class MotionAlignment:
         filter's heading over it, then of the filter's heading error (the two's difference);
         their sums kept as runs come and go."""
         self._sums: tuple[float, ...] = (0.0,) * 6
+        self._gaps: deque[tuple[float, float]] = deque()
+        """(t, the time since the run before) of the runs whose gap is larger than every
+        later run's: the first is the window's largest gap, kept as runs come and go."""
         self._courses: deque[tuple[float, ...]] = deque()
         """(t, sine, cosine) of the sensor's mean raw reading less the course made good over
         each straight run, then of the reading negated less the course: which way round the
@@ -173,6 +176,7 @@ class MotionAlignment:
         self._astern.clear()
         self._speeds.clear()
         self._runs.clear()
+        self._gaps.clear()
         self._courses.clear()
         self._sums = (0.0,) * 6
         self._course_sums = (0.0,) * 4
@@ -231,6 +235,9 @@ class MotionAlignment:
             _, *old = runs.popleft()
             self._sums = tuple(a - b for a, b in zip(self._sums, old, strict=True))
             self._fresh = False
+        gaps = self._gaps
+        while gaps and (not runs or gaps[0][0] <= runs[0][0]):  # its run before has left
+            gaps.popleft()
         courses = self._courses
         while courses and courses[0][0] < t - WINDOW:
             _, *old = courses.popleft()
@@ -273,6 +280,11 @@ class MotionAlignment:
         stale = math.atan2(s2, c2)
         run = (math.sin(correction), math.cos(correction), math.sin(stale), math.cos(stale),
                math.sin(correction - stale), math.cos(correction - stale))
+        if runs:
+            gap = t - runs[-1][0]
+            while gaps and gaps[-1][1] <= gap:
+                gaps.pop()
+            gaps.append((t, gap))
         runs.append((t, *run))
         self._sums = tuple(a + b for a, b in zip(self._sums, run, strict=True))
         self._velocity = (dx / (t - t0), dy / (t - t0))
@@ -296,11 +308,10 @@ class MotionAlignment:
         correction, spread = _circular(self._sums[0], self._sums[1], n)
         stale, stale_spread = _circular(self._sums[2], self._sums[3], n)
         heading_error, _ = _circular(self._sums[4], self._sums[5], n)
-        times = [run[0] for run in self._runs]
-        gap = max(b - a for a, b in zip(times, times[1:], strict=False))
-        spanned = times[-1] - times[0] >= MIN_SPAN
-        lasted = (spanned and gap <= MAX_GAP) or (
-            self._off is not None and self._off >= times[-1] - WINDOW)
+        first, last = self._runs[0][0], self._runs[-1][0]
+        spanned = last - first >= MIN_SPAN
+        lasted = (spanned and self._gaps[0][1] <= MAX_GAP) or (
+            self._off is not None and self._off >= last - WINDOW)
         told = spread <= MAX_SPREAD and (lasted or abs(correction) >= TURNED_ROUND)
         steady = self._steady(lasted)
         if steady is not None and (not told or steady[1] < spread):
