@@ -243,7 +243,11 @@ class MotionAlignment:
             _, *old = courses.popleft()
             self._course_sums = (tuple(a - b for a, b in zip(self._course_sums, old, strict=True))
                                  if courses else (0.0,) * 4)
-        start = next((f for f in reversed(fixes) if math.hypot(x - f[1], y - f[2]) >= RUN), None)
+        start = None
+        for fix in reversed(fixes):  # the latest fix a run's length back
+            if math.hypot(x - fix[1], y - fix[2]) >= RUN:
+                start = fix
+                break
         fixes.append((t, x, y))
         if start is None or start[0] >= t:
             return
@@ -268,8 +272,9 @@ class MotionAlignment:
             c3 += f
         mean = math.atan2(s1, c1)
         sm, cm = math.sin(mean), math.cos(mean)
-        if min(h[2] * cm + h[1] * sm for h in readings) < STRAIGHT:  # one strays > MAX_TURN
-            return
+        for h in readings:
+            if h[2] * cm + h[1] * sm < STRAIGHT:  # it strays more than MAX_TURN: a turn
+                return
         course = course_yaw(dx, dy)
         raw = math.atan2(s3, c3)
         offsets = (math.sin(raw - course), math.cos(raw - course),
