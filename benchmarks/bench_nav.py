@@ -151,22 +151,25 @@ the bit (Plaza1 tracks and covariances compared).
   the three runs) that are this VM's, not the process's.
 - 2026-12-05 (evening): the slowest 2 % of pNav's ticks are those where a GPS fix ends a run
   made good (``alignment.py``, twice a second): its estimate 44 µs (the sensor's raw offset
-  from the courses recomputed over the window's ~60 runs, sines and cosines each time) and
-  the run itself 27 µs. The courses' sums are now kept as runs come and go (as the runs'
-  corrections already were) and a run's six sums taken in one pass: the estimate 44 → 20 µs
-  there, pNav's p99 in the tick 422 → 351 µs; the whole tick's work (per-tick minimum of
-  three runs), interleaved with the code before, 792/765/746 → 777/754/727 µs; results the
-  same to the printed digit on 168 replays (Plaza1 whole, half its ranges, started 300 and
-  800 s in; eleven faults, two seeds, both missions). Tried and dropped, measured in the
-  tick: numba-compiled kernels for the prediction's F P Fᵀ + Q and for the correction
-  (gain, state step, P − K S Kᵀ symmetrised, its Cholesky check): predict 36 → 25 µs,
-  ``_apply`` 36 → 16 µs, yet pNav 299 → 282 µs all told (the rest of the update slowed
-  as the kernels took the caches): a compiled call in a cold tick costs about what a numpy
+  from the courses recomputed over the window's ~60 runs, sines and cosines each time, and
+  the list of the runs' times for their largest gap) and the run itself 27 µs. The courses'
+  sums and the window's largest gap are now kept as runs come and go (as the runs'
+  corrections already were), a run's six sums taken in one pass: the estimate 44 → 11 µs
+  there. The whole tick's work (per-tick minimum of three runs), interleaved with the code
+  before, three times: 847/831/834 → 788/776/753 µs (−7 to −10 %); results the same to the
+  printed digit on 168 replays (Plaza1 whole, half its ranges, started 300 and 800 s in;
+  eleven faults, two seeds, both missions) and in the fault tables. Tried and dropped,
+  measured in the tick: numba-compiled kernels for the prediction's F P Fᵀ + Q and for the
+  correction (gain, state step, P − K S Kᵀ symmetrised, its Cholesky check): predict 36 →
+  25 µs, ``_apply`` 36 → 16 µs, yet pNav 299 → 282 µs all told (the rest of the update
+  slowed as the kernels took the caches): a compiled call in a cold tick costs about what a numpy
   call does, so replacing five calls by one saves ~3 µs each. Not worth a 40 MB compiler
-  dependency, results no longer bit for bit, and a JIT compile at every cold start. A
-  single ``bench_nav`` then: runs' p99 1.02 / 0.89 / 1.00 ms (met, at the limit), the work
-  0.82 ms, EKF 40.9 µs, replay 4.8 s; nine single runs a few minutes earlier: p99 843–1243
-  µs, two of nine over 1 ms.
+  dependency, results no longer bit for bit, and a JIT compile at every cold start.
+  ``bench_nav`` after the first step: runs' p99 1.02 / 0.89 / 1.00 ms (met, at the limit),
+  the work 0.82 ms; nine single runs a few minutes before it: p99 843–1243 µs, two of nine
+  over 1 ms. After the last: runs' p99 0.87 / 0.85 / 0.84 ms (met), the work 0.78 ms, EKF
+  41 µs, replay 4.7 s. The slowest ticks are now the autopilot's 1 Hz burst again (52 of
+  the 62 slowest), iMAVLink 158 µs there against 82 µs in the other GPS ticks.
 """
 
 from __future__ import annotations
