@@ -235,17 +235,20 @@ def test_one_course_cannot_tell_which_way_round_the_sensor_reads() -> None:
         assert _legs([30.0, 30.0, 30.0], mirrored=mirrored).sense() is None
 
 
-def _tour(a: MotionAlignment, start_s: float, end_s: float) -> MotionAlignment:
+def _tour(a: MotionAlignment, start_s: float, end_s: float, *,
+          mirrored: bool) -> MotionAlignment:
     """Legs of 15 s on 30°, 120°, 210° and 300° in turn at 1.5 m/s, from ``start_s`` to
-    ``end_s`` of the same tour: the sensor read the wrong way round at 4 Hz, a fix every 0.5
-    s (its error a function of its time, so that two tours over one stretch see the same).
-    Times are multiples of 0.25 s: exact in binary, so two tours keep the same readings."""
+    ``end_s`` of the same tour: the sensor at 4 Hz reading the yaw plus 20°, or ``mirrored``
+    (70° less the yaw), a fix every 0.5 s (its error a function of its time, so that two
+    tours over one stretch see the same). Times are multiples of 0.25 s: exact in binary,
+    so two tours keep the same readings."""
     x = y = 0.0
     for k in range(round(end_s / 0.25)):
         t = k * 0.25
         h = math.radians((30.0, 120.0, 210.0, 300.0)[int(t // 15.0) % 4])
         if t >= start_s:
-            a.add_heading(t, math.remainder(math.radians(70.0) + h, 2 * math.pi))
+            read = math.radians(70.0) + h if mirrored else math.radians(20.0) - h
+            a.add_heading(t, math.remainder(read, 2 * math.pi))
             if k % 2 == 0:
                 noise = random.Random(k)
                 a.add_fix(t, x + noise.gauss(0.0, 0.3), y + noise.gauss(0.0, 0.3))
@@ -253,21 +256,28 @@ def _tour(a: MotionAlignment, start_s: float, end_s: float) -> MotionAlignment:
     return a
 
 
-def test_ten_minutes_of_runs_come_and_go_leaving_what_the_last_minute_alone_says() -> None:
+@pytest.mark.parametrize("mirrored", [True, False])
+def test_ten_minutes_of_runs_come_and_go_leaving_what_the_last_minute_alone_says(
+        mirrored: bool) -> None:
     """The sums kept as runs enter and leave the window: after ten minutes they say what a
-    tour of only the window's stretch (and the runs' lead-in) says."""
-    whole = _tour(MotionAlignment(), 0.0, 600.0)
-    last = _tour(MotionAlignment(), 520.0, 600.0)
+    tour of only the window's stretch (and the runs' lead-in) says: which way round the
+    sensor reads, and (read the right way round) the correction its bias needs."""
+    whole = _tour(MotionAlignment(), 0.0, 600.0, mirrored=mirrored)
+    last = _tour(MotionAlignment(), 520.0, 600.0, mirrored=mirrored)
     told, alone = whole.sense(), last.sense()
-    assert told is not None and alone is not None and told.reversed and alone.reversed
+    assert told is not None and alone is not None
+    assert told.reversed == alone.reversed == mirrored
     assert told.runs == alone.runs
     assert told.bias == pytest.approx(alone.bias, abs=1e-9)
     assert told.spread == pytest.approx(alone.spread, abs=1e-9)
+    if mirrored:
+        return
     found, found_alone = whole.estimate(), last.estimate()
-    assert (found is None) == (found_alone is None)
-    if found is not None and found_alone is not None:
-        assert found.correction == pytest.approx(found_alone.correction, abs=1e-9)
-        assert found.spread == pytest.approx(found_alone.spread, abs=1e-9)
+    assert found is not None and found_alone is not None and found.told
+    assert abs(math.degrees(found.correction) - 20.0) < 3.0
+    assert found.runs == found_alone.runs
+    assert found.correction == pytest.approx(found_alone.correction, abs=1e-9)
+    assert found.spread == pytest.approx(found_alone.spread, abs=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(5))
