@@ -37,7 +37,8 @@ settings.load_profile("mavhelm")
 LIVE: frozenset[str] = frozenset({
     "test_ardupilot_actuation", "test_ardupilot_companion", "test_ardupilot_signing",
     "test_ardupilot_sitl", "test_ardupilot_tune", "test_ardusub_figure1", "test_bridge_sensors",
-    "test_bridge_serial", "test_bridge_udp", "test_bus_clock", "test_check", "test_cli_realtime",
+    "test_bridge_serial", "test_bridge_udp", "test_bridge_unread_streams", "test_bus_clock",
+    "test_check", "test_cli_realtime",
     "test_cli_signals", "test_conformance", "test_e2e_serial_nav", "test_fleet_view",
     "test_interop_mavproxy", "test_interop_mavsdk", "test_link", "test_nav_serial",
     "test_nav_sim", "test_remote", "test_serial_instruments", "test_sitl_braking",

@@ -13,7 +13,6 @@ docstring), so wheel odometry is tested with encoded messages only.
 from __future__ import annotations
 
 import math
-import socket
 import time
 
 import pytest
@@ -29,6 +28,7 @@ from mavhelm.core.bus import Bus, Message
 from mavhelm.core.clock import SimClock
 from mavhelm.core.geodesy import Origin
 from mavhelm.core.mission import parse_mission
+from tests.support.bridge_rig import UdpLinkRig
 from tests.support.ports import free_udp_port
 
 ORIGIN = Origin(56.4120, -5.4760)
@@ -38,20 +38,8 @@ SENSOR_NAMES = ("AP_ALTITUDE", "AP_DISTANCE_", "WHEEL_VX_BODY", "TRUTH_", "MAVLI
                 "MAVLINK_BAD_PACKETS")
 
 
-class Rig:
+class Rig(UdpLinkRig):
     """A bridge on ``udpin:`` and an autopilot (1/1) sending it encoded frames."""
-
-    def __init__(self) -> None:
-        port = free_udp_port()
-        self.clock = SimClock(100.0)
-        self.bus = Bus(self.clock)
-        self.bus.subscribe("test", ["*"])
-        self.bridge = MavlinkBridge(self.bus, BridgeConfig(connect=f"udpin:127.0.0.1:{port}"),
-                                    ORIGIN)
-        self.bridge.receive(self.clock.now())  # binds the port
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.address = ("127.0.0.1", port)
-        self.autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
 
     def send(self, *msgs: mavlink.MAVLink_message,
              sender: mavlink.MAVLink | None = None) -> list[Message]:
@@ -66,10 +54,6 @@ class Rig:
             time.sleep(0.001)
             self.bridge.receive(now)
         return [m for m in self.bus.fetch("test") if m.name.startswith(SENSOR_NAMES)]
-
-    def close(self) -> None:
-        self.sock.close()
-        self.bridge.close()
 
 
 @pytest.fixture

@@ -387,6 +387,10 @@ class SkimmingParser(mavlink.MAVLink):
     """Whether ``parse_buffer`` returns the unread frames (as ``Skimmed``, for a recorder)
     or only counts them in ``skimmed``."""
     skimmed = 0
+    unread: dict[tuple[int, int, int], int] | None = None
+    """How many unread frames of each (system, component, message id) were dropped while
+    framing, when a dict is given: what a sender streams that nothing reads (the bridge asks
+    the autopilot to stop it)."""
 
     def decode(self, msgbuf: bytearray) -> mavlink.MAVLink_message:
         wanted = self.decoded
@@ -417,6 +421,7 @@ class SkimmingParser(mavlink.MAVLink):
         at, end = 0, len(buf)
         wanted = self.decoded
         dropping = wanted is not None and not self.keep_skimmed
+        unread = self.unread
         counted = 0
         while at < end:
             magic = buf[at]
@@ -440,6 +445,10 @@ class SkimmingParser(mavlink.MAVLink):
                 msgid = buf[at + 7] | buf[at + 8] << 8 | buf[at + 9] << 16 if magic == V2 \
                     else buf[at + 5]
                 if msgid not in wanted:  # type: ignore[operator]
+                    if unread is not None:
+                        key = (buf[at + 5], buf[at + 6], msgid) if magic == V2 \
+                            else (buf[at + 3], buf[at + 4], msgid)
+                        unread[key] = unread.get(key, 0) + 1
                     at += size
                     counted += 1
                     continue
@@ -508,6 +517,7 @@ class AutopilotLink:
         self.mav = SkimmingParser(self, srcSystem=self.system_id,
                                   srcComponent=self.component_id)
         self.mav.robust_parsing = True
+        self.mav.unread = {}
         self._buffer = bytearray(READ_CAP)
         self._socket = isinstance(self.transport, TcpTransport | UdpTransport)
         """A socket's read returns its whole queue, so a read short of the room left is the

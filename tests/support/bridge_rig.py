@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import socket
 from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -40,3 +41,24 @@ class BridgeRig:
 
     def posted(self) -> list[Message]:
         return self.bus.fetch("test")
+
+
+class UdpLinkRig:
+    """A bridge on ``udpin:`` that has bound its port (a simulated clock, every post kept for
+    ``test``), and the autopilot's (1/1) UDP socket to it: frames go through the link."""
+
+    def __init__(self) -> None:
+        port = free_udp_port()
+        self.clock = SimClock(100.0)
+        self.bus = Bus(self.clock)
+        self.bus.subscribe("test", ["*"])
+        self.bridge = MavlinkBridge(self.bus, BridgeConfig(connect=f"udpin:127.0.0.1:{port}"),
+                                    ORIGIN)
+        self.bridge.receive(self.clock.now())  # binds the port
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.address = ("127.0.0.1", port)
+        self.autopilot = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def close(self) -> None:
+        self.sock.close()
+        self.bridge.close()

@@ -4,7 +4,8 @@ The link is up while the connection is open and the autopilot's HEARTBEAT came w
 ``LinkTimeOut``; the helm is online while the link is up, the autopilot is armed in one of
 ``OnlineModes`` and the actuation profile has no refusal. On the way up it asks for the
 streams (again every 2 s until acknowledged, and warns of any not heard after
-``STREAM_GRACE_S``) and for the parameters the profile needs.
+``STREAM_GRACE_S``) and for the parameters the profile needs, and asks the autopilot to stop
+the streams nothing reads (``stop_unread``).
 """
 
 from __future__ import annotations
@@ -23,6 +24,20 @@ STREAM_GRACE_S = 5.0
 """How long after the link comes up every requested stream must have been heard once."""
 REQUEST_RETRY_S = 2.0
 """Streams and parameters not yet answered are asked for again this often."""
+STOP_RETRY_S = 5.0
+STOP_TRIES = 2
+"""A message the autopilot still streams ``STOP_RETRY_S`` after it was asked to stop is
+asked again (the request may have been lost), at most ``STOP_TRIES`` times in all: an
+autopilot that refuses is left as it is (ArduPilot says so to every ground station)."""
+STREAMED_AFTER = 3
+"""Frames of a message heard before it is taken for a stream: an event's message (a mission
+item reached) has no interval to stop."""
+NOT_STREAMS = frozenset({mavlink.MAVLINK_MSG_ID_TIMESYNC, mavlink.MAVLINK_MSG_ID_PING})
+"""Periodic, but requests of a protocol rather than streams: ArduPilot has no interval for
+them and refuses a stop with "No ap_message for mavlink id" to every ground station (the
+Rover SITL sends a TIMESYNC every few seconds)."""
+STOPS_PER_TICK = 8
+"""Stop requests sent in one tick at most (each is a write to the link)."""
 
 
 class LinkSupervisor:
@@ -38,6 +53,8 @@ class LinkSupervisor:
         self.up_since: float | None = None
         self.streams_checked = False
         self.bad_packets_posted = 0
+        self.stops: dict[int, tuple[float, int]] = {}
+        """Message id → when the autopilot was last asked to stop streaming it, how often."""
 
     def update(self, now: float) -> None:
         bridge = self.bridge
@@ -53,6 +70,7 @@ class LinkSupervisor:
         if up:
             self._check_streams(now)
             self.request_params(now)
+            self.stop_unread(now)
         state.view.gcs_silent_s = (math.inf if state.gcs_heard_at is None
                                    else now - state.gcs_heard_at)
         refusal = bridge.actuation.refusal(state.view) if up else None
@@ -67,6 +85,7 @@ class LinkSupervisor:
             self.up_since = now
             bridge.state.heard = set()
             self.streams_checked = False
+            self.stops = {}  # the autopilot may have restarted: its streams are its defaults
             self.request_streams(now)
             return
         bridge.state.streams_acked = False
@@ -152,6 +171,45 @@ class LinkSupervisor:
             self.bridge.link.mav.command_long_send(
                 config.target_system, config.target_component,
                 mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msg_id, interval_us, 0, 0, 0, 0, 0)
+
+    def stop_unread(self, now: float) -> None:
+        """Ask the autopilot to stop, on this link only (``SET_MESSAGE_INTERVAL`` −1), each
+        message it streams that the companion never reads, once heard ``STREAMED_AFTER``
+        times (``AutopilotLink``'s parser counts them; with a ``.tlog`` recording the link it
+        keeps them all and counts none): a default ArduPilot link streams some 25 messages,
+        16 of them read by no one here, which cost the link's bandwidth and the tick their
+        framing. Only once the streams the companion asked for are acknowledged (any
+        ``SET_MESSAGE_INTERVAL`` ACK counts as theirs), and said on ``MAVLINK_LINK``."""
+        bridge = self.bridge
+        heard = bridge.link.mav.unread
+        if not heard or not bridge.state.streams_acked:
+            return
+        config = bridge.config
+        target = (config.target_system, config.target_component)
+        asked: list[str] = []
+        for key, count in sorted(heard.items()):
+            system, component, msg_id = key
+            last = self.stops.get(msg_id)
+            if (system, component) != target or msg_id in NOT_STREAMS or (
+                    last is not None and (now - last[0] < STOP_RETRY_S
+                                          or last[1] >= STOP_TRIES)):
+                del heard[key]  # another sender's, or asked: counted afresh
+                continue
+            if count < STREAMED_AFTER:
+                continue
+            if len(asked) == STOPS_PER_TICK:
+                break
+            del heard[key]
+            self.stops[msg_id] = (now, 1 if last is None else last[1] + 1)
+            bridge.link.mav.command_long_send(
+                config.target_system, config.target_component,
+                mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msg_id, -1, 0, 0, 0, 0, 0)
+            entry = mavlink.mavlink_map.get(msg_id)
+            asked.append(entry.msgname if entry is not None else str(msg_id))
+        if asked:
+            bridge.input.notify("MAVLINK_LINK", f"asked the autopilot to stop streaming "
+                                f"{', '.join(asked)} on this link: the companion reads none "
+                                "of them")
 
     def describe(self, up: bool, refusal: str | None = None) -> str:
         """Whether the helm may drive, and if not, the one reason an operator can act on."""
