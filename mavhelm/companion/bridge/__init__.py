@@ -54,15 +54,14 @@ down and forward, the motorboat has no data) and wheel encoders with ``WENC_TYPE
 ``WENC2_TYPE 10`` and ``WENC_POS_Y``/``WENC2_POS_Y`` set; but Rover 4.8-dev sends no
 WHEEL_DISTANCE, in any stream, and refuses SET_MESSAGE_INTERVAL for it ("No ap_message for
 mavlink id (9000)"), so wheel odometry from ArduPilot is untested against the binary.
+A message whose values are not finite or are impossible is refused whole (``MAVLINK_ERROR``,
+counted in ``MAVLINK_BAD_PACKETS``), like any other bad input.
 
 What the autopilot streams on the companion's link and the bridge does not read (a default
 ArduPilot link carries some 25 messages, 16 of them read by no one here: RAW_IMU, MEMINFO,
 BATTERY_STATUS …) it is asked to stop, on that link only (``SET_MESSAGE_INTERVAL`` −1, once
 the companion's own stream requests are acknowledged; ``LinkSupervisor.stop_unread``): the
-link's bandwidth and the tick's framing go to what is read. A link recorded to a ``.tlog``
-keeps every stream.
-A message whose values are not finite or are impossible is refused whole (``MAVLINK_ERROR``,
-counted in ``MAVLINK_BAD_PACKETS``), like any other bad input.
+link's bandwidth goes to what is read. A link recorded to a ``.tlog`` keeps every stream.
 """
 
 from mavhelm.companion.bridge.config import (
