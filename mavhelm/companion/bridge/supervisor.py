@@ -177,8 +177,8 @@ class LinkSupervisor:
         message it streams that the companion never reads, once heard ``STREAMED_AFTER``
         times (``AutopilotLink``'s parser counts them; with a ``.tlog`` recording the link it
         keeps them all and counts none): a default ArduPilot link streams some 25 messages,
-        16 of them read by no one here, which cost the link's bandwidth and the tick their
-        framing. Only once the streams the companion asked for are acknowledged (any
+        16 of them read by no one here, which cost the link's bandwidth (their framing in the
+        tick is a few µs). Only once the streams the companion asked for are acknowledged (any
         ``SET_MESSAGE_INTERVAL`` ACK counts as theirs), and said on ``MAVLINK_LINK``."""
         bridge = self.bridge
         heard = bridge.link.mav.unread
