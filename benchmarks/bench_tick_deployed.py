@@ -23,6 +23,19 @@ way, which the kernel charges to the companion's thread (iMAVLinkOut's send). A 
 autopilot link is a UART, whose write is a copy into the tty's buffer; this VM has none to
 measure. With the helper's real-SITL runs beside it (load ≈ 2) the same run gave 2024 / 3849
 µs. The issue's 1 ms p99 is not met here either.
+
+2026-12-05 (evening), the code of that day, nothing else running, 120 s: whole tick CPU median
+1666–1747 µs, p99 2105–2601 µs; pNav 719–817 µs median against ~265 µs in ``bench_nav``'s
+rig. Most of the difference is pNav's **time slices**, now printed: 2.5 a tick here (600
+ticks of 2, 600 of 3), one in the rig. On the wall clock the heading, the DVL and the
+autopilot's ATTITUDE and GPS are each stamped when they were read, a few tens of ms apart, and
+the filter predicts to each stamp and updates there (spec 2.2: "a fine discretization of
+time"), ~250 µs a slice in a cold tick; in the lockstep rig the simulator stamps a tick's
+readings alike. With the loop busy-waiting instead of sleeping (the core kept awake between
+ticks; a scratch variant, 60 s): CPU median 1318 µs, p99 1891 µs, pNav 616 µs — the sleep's
+share a quarter, the slices most of the rest. Taking a tick's readings as one slice would
+cut pNav to about the rig's figure, but would treat readings up to a tick apart as
+simultaneous (a range 0.1 s off at 2 m/s: 0.2 m); not done.
 """
 
 from __future__ import annotations
@@ -109,6 +122,7 @@ def measure(seconds: float) -> None:
             companion.bus.subscribe("bench", ["HELM_ONLINE", "NAV_X_SOURCE"])
             cpu: list[float] = []
             wall: list[float] = []
+            slices: list[int] = []
             online_at: float | None = None
             sources: set[str] = set()
             next_tick = clock.now()
@@ -118,6 +132,8 @@ def measure(seconds: float) -> None:
                 companion.tick(clock.now())
                 cpu.append(time.thread_time() - c0)
                 wall.append(time.perf_counter() - w0)
+                fusion = companion.navigator.fusion
+                slices.append(fusion.slices if fusion is not None else 0)
                 companion.idle()
                 for m in companion.bus.fetch("bench"):
                     if m.name == "HELM_ONLINE" and m.double == 1.0 and online_at is None:
@@ -134,7 +150,8 @@ def measure(seconds: float) -> None:
                 print("the helm never came online: nothing measured")
                 return
             skip = first + int(SETTLE_S / companion.tick_period)
-            _report(companion, cpu[skip:], wall[skip:], skip, sources)
+            _report(companion, cpu[skip:], wall[skip:], skip, sources,
+                    np.diff(slices[skip - 1:]))
     finally:
         if companion is not None:
             companion.close()
@@ -144,12 +161,16 @@ def measure(seconds: float) -> None:
 
 
 def _report(companion: Companion, cpu: list[float], wall: list[float], skip: int,
-            sources: set[str]) -> None:
+            sources: set[str], slices: np.ndarray) -> None:
     c, w = np.asarray(cpu) * 1e6, np.asarray(wall) * 1e6
     print(f"companion in its own process, mavhelm sim in another, wall clock: "
           f"{len(companion.helm.tasks)} helm tasks, NAV_X from {sorted(sources)}, {c.size} ticks")
     print(f"  whole tick, CPU  median {np.median(c):6.0f} us   p99 {np.percentile(c, 99):6.0f} us")
     print(f"  whole tick, wall median {np.median(w):6.0f} us   p99 {np.percentile(w, 99):6.0f} us")
+    counts = np.bincount(slices)
+    print(f"  pNav's time slices a tick (each a prediction and an update; the readings "
+          f"stamped apart): mean {slices.mean():.2f}, "
+          + ", ".join(f"{k}: {n} ticks" for k, n in enumerate(counts) if n))
     for name, seconds in companion.community.app_seconds.items():
         a = np.asarray(seconds[skip:]) * 1e6
         print(f"    {name:16s} median {np.median(a):6.1f} us   p99 {np.percentile(a, 99):6.1f} us")

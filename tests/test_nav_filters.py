@@ -209,6 +209,35 @@ def test_late_data_are_logged_late_without_lag_and_used_with_it() -> None:
             assert rig.last("EKF_DEPTH").double == pytest.approx(4.0, abs=0.2)
 
 
+def test_each_time_stamp_of_a_tick_is_a_slice_of_its_own() -> None:
+    """Readings stamped apart within one tick are predicted to and updated at each stamp
+    (spec 2.2's fine discretization of time); stamped alike, they are one slice. The count
+    is what ``bench_tick_deployed`` prints: a companion on the wall clock takes several."""
+    rig = Rig(GPS_COMPASS)
+    for _ in range(20):
+        rig.post("INS_YAW", 0.0)
+        rig.post("GPS_X", 0.0)
+        rig.post("GPS_Y", 0.0)
+        rig.tick()
+    fusion = rig.nav.fusion
+    assert fusion is not None and fusion.ekf is not None
+    before = fusion.slices
+    for _ in range(10):
+        last_tick = rig.clock.now()
+        rig.post("INS_YAW", 0.0, last_tick + 0.02)
+        rig.post("GPS_X", 0.0, last_tick + 0.05)
+        rig.post("GPS_Y", 0.0, last_tick + 0.05)
+        rig.tick()
+    assert fusion.slices - before == 20
+    before = fusion.slices
+    for _ in range(10):
+        rig.post("INS_YAW", 0.0)
+        rig.post("GPS_X", 0.0)
+        rig.post("GPS_Y", 0.0)
+        rig.tick()
+    assert fusion.slices - before == 10
+
+
 def test_a_tlog_replays_through_the_missions_pnav_with_its_truth(tmp_path) -> None:
     """``mavhelm nav replay`` on a MAVLink .tlog: the frames go through the mission's bridge
     (GPS_RAW_INT → GPS_X/Y, ATTITUDE → INS_YAW, SIMSTATE → TRUTH_X/Y) and the pNav block's

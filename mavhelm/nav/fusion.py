@@ -286,6 +286,9 @@ class Fusion:
                                    config.max_median_shift)
         self.ekf: EKF | None = None
         self.horizon: float | None = None
+        self.slices = 0
+        """Time slices taken so far (each a prediction and an update): readings stamped apart
+        within one tick make several, the filter's main cost."""
         self.failure: str | None = None
         self.new_fixes: list[Fix] = []
         self.decisions: list[Decision] = []
@@ -442,6 +445,7 @@ class Fusion:
             while self._queue and self._queue[0][0] == t:
                 batch.append(heapq.heappop(self._queue)[2])
             self._slice(t, batch)
+            self.slices += 1
             sliced = True
         return sliced
 
