@@ -27,11 +27,11 @@ measure. With the helper's real-SITL runs beside it (load ≈ 2) the same run ga
 2026-12-05 (evening), the code of that day, nothing else running, 120 s: whole tick CPU median
 1666–1747 µs, p99 2105–2601 µs; pNav 719–817 µs median against ~265 µs in ``bench_nav``'s
 rig. Most of the difference is pNav's **time slices**, now printed: 2.5 a tick here (600
-ticks of 2, 600 of 3), one in the rig. On the wall clock the heading, the DVL and the
-autopilot's ATTITUDE and GPS are each stamped when they were read, a few tens of ms apart, and
-the filter predicts to each stamp and updates there (spec 2.2: "a fine discretization of
-time"), ~250 µs a slice in a cold tick; in the lockstep rig the simulator stamps a tick's
-readings alike. With the loop busy-waiting instead of sleeping (the core kept awake between
+ticks of 2, 600 of 3), one in the rig. On the wall clock the serial heading and DVL carry
+the tick's time, the autopilot's ATTITUDE and GPS their own sample times (its time_boot_ms
+lined up with the companion's clock), tens of ms apart, and the filter predicts to each stamp
+and updates there (spec 2.2: "a fine discretization of time"), ~250 µs a slice in a cold
+tick; in the lockstep rig every reading of a tick carries the same time. With the loop busy-waiting instead of sleeping (the core kept awake between
 ticks; a scratch variant, 60 s): CPU median 1318 µs, p99 1891 µs, pNav 616 µs — the sleep's
 share a quarter, the slices most of the rest. Taking a tick's readings as one slice would
 cut pNav to about the rig's figure, but would treat readings up to a tick apart as
