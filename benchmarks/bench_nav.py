@@ -170,6 +170,15 @@ the bit (Plaza1 tracks and covariances compared).
   over 1 ms. After the last: runs' p99 0.87 / 0.85 / 0.84 ms (met), the work 0.78 ms, EKF
   41 µs, replay 4.7 s. The slowest ticks are now the autopilot's 1 Hz burst again (52 of
   the 62 slowest), iMAVLink 158 µs there against 82 µs in the other GPS ticks.
+- 2026-12-05 (late evening): the tick now runs five times by default and the target line is
+  the median of the five runs' p99 (each printed): a single 300 s run's p99 is set by its 30
+  slowest ticks, and one cluster of the VM's slow ticks lifts a run over the line on code
+  that meets it (37 runs that evening, the same code: p99 0.79-1.06 ms, two over 1 ms; the
+  work, per-tick minimum, 0.73-0.75 ms). Medians of five: 0.83-0.87 ms in five measurements
+  over an hour, the full benchmark 0.87 ms (EKF 40.8 µs, replay 4.4 s). pNav's time slices
+  are printed (one a tick in this rig; ``bench_tick_deployed`` counts 2.5 on the wall clock,
+  where the autopilot's messages carry their own sample times, and its pNav costs as much
+  again per slice: 1.7 ms median tick there, not met).
 """
 
 from __future__ import annotations

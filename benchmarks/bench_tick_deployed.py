@@ -31,9 +31,10 @@ ticks of 2, 600 of 3), one in the rig. On the wall clock the serial heading and 
 the tick's time, the autopilot's ATTITUDE and GPS their own sample times (its time_boot_ms
 lined up with the companion's clock), tens of ms apart, and the filter predicts to each stamp
 and updates there (spec 2.2: "a fine discretization of time"), ~250 µs a slice in a cold
-tick; in the lockstep rig every reading of a tick carries the same time. With the loop busy-waiting instead of sleeping (the core kept awake between
-ticks; a scratch variant, 60 s): CPU median 1318 µs, p99 1891 µs, pNav 616 µs — the sleep's
-share a quarter, the slices most of the rest. Taking a tick's readings as one slice would
+tick; in the lockstep rig every reading of a tick carries the same time. With the loop
+busy-waiting instead of sleeping (the core kept awake between ticks; a scratch variant, 60 s):
+CPU median 1318 µs, p99 1891 µs, pNav 616 µs — the sleep's share a quarter, the slices most
+of the rest. Taking a tick's readings as one slice would
 cut pNav to about the rig's figure, but would treat readings up to a tick apart as
 simultaneous (a range 0.1 s off at 2 m/s: 0.2 m); not done.
 """
